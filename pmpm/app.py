@@ -1,0 +1,90 @@
+"""From command-line arguments to a finished run: load and check the case, prepare the
+output directory, build or restore the state, compile, run."""
+import os
+import shutil
+
+from .solver.errors import SetupError
+
+
+class InputError(Exception):
+    """Bad input: ``problems`` holds one line per problem, each naming its key."""
+
+    def __init__(self, problems):
+        self.problems = list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+OUTPUT_FILES = ("particles.h5", "particles.xdmf", "history.csv", "summary.json")
+
+
+def run_case(world, args):
+    """Run the case of ``args`` on ``world``; returns the summary.json path."""
+    case, case_text = load_checked_case(args.case, args.overrides)
+    out = args.out or os.path.join("results", _stem(args.case))
+    prepare_output(world, out, args.force, args.restart)
+    from .kernels.warmup import warm_up
+    from .solver.run import Runner
+    sim, restarted = build_simulation(world, case, args, out)
+    compile_s = world.max(warm_up())
+    runner = Runner(sim, out, case_text, progress=not args.quiet)
+    runner.run(restarted=restarted, compile_s=compile_s)
+    return os.path.join(out, "summary.json")
+
+
+def load_checked_case(path, overrides):
+    from .case import CaseError, load_case
+    try:
+        case = load_case(path, overrides)
+    except CaseError as err:
+        raise InputError(err.problems) from None
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    if overrides:
+        text += "\n# --set " + " --set ".join(overrides) + "\n"
+    return case, text
+
+
+def prepare_output(world, out, force, restart):
+    """Refuse to overwrite results unless asked; decided on rank 0 for every rank."""
+    problem = None
+    if world.is_root:
+        problem = _check_output(out, force, restart)
+    problem = world.bcast(problem)
+    if problem:
+        raise InputError([problem])
+    world.barrier()
+
+
+def _check_output(out, force, restart):
+    exists = os.path.isdir(out) and os.listdir(out)
+    if restart:
+        from .io import latest_checkpoint
+        if not exists or latest_checkpoint(out) is None:
+            return f"--restart: no checkpoint in '{out}'"
+        return None
+    if exists and not force:
+        return (f"--out: output directory '{out}' exists and is not empty; "
+                f"use --force to overwrite it or --restart to continue it")
+    if exists:
+        shutil.rmtree(out)
+    os.makedirs(out, exist_ok=True)
+    return None
+
+
+def build_simulation(world, case, args, out):
+    from .case import fill_body
+    from .solver.simulation import Simulation
+    if args.restart:
+        from .io import latest_checkpoint, load_checkpoint
+        scalars, columns = load_checkpoint(latest_checkpoint(out), world.raw)
+        return Simulation.from_checkpoint(world, case, scalars, columns), True
+    try:
+        sim = Simulation.from_case(world, case, os.path.dirname(os.path.abspath(args.case)),
+                                   fill_body)
+    except SetupError as err:
+        raise InputError(err.problems) from None
+    return sim, False
+
+
+def _stem(path):
+    return os.path.splitext(os.path.basename(path))[0]

@@ -1,0 +1,135 @@
+"""Validation of ``bodies:`` (geometry, rotation, particles per cell, velocity) and the
+checks that need the filled particles (inside the grid box, not empty, mesh readable)."""
+import math
+import os
+import re
+
+import numpy as np
+
+from .errors import join
+from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, integer,
+                     mapping, number, read_mapping, read_tagged, text, vector)
+from .fill import fill_geometry
+from .mesh import MeshReadError
+from .shapes import AXES, nose_length, reference_point
+
+_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+POSITIVE = Field(number(greater(0)))
+POINT = Field(vector())
+
+GEOMETRIES = {
+    "box": {"min": POINT, "max": POINT},
+    "cylinder": {"base": POINT, "axis": Field(choice(AXES, "axis")), "radius": POSITIVE,
+                 "length": POSITIVE, "inner_radius": Field(number(at_least(0)), 0.0)},
+    "sphere": {"center": POINT, "radius": POSITIVE},
+    "ogive": {"tip": Field(vector(), OMIT), "base": Field(vector(), OMIT),
+              "direction": Field(vector(nonzero=True)), "length": POSITIVE,
+              "diameter": POSITIVE, "crh": Field(number(at_least(0.5)))},
+    "mesh": {"file": Field(text()), "scale": Field(number(greater(0)), 1.0),
+             "translate": Field(vector(), [0.0, 0.0, 0.0])},
+}
+ROTATE = {"axis": Field(vector(nonzero=True)), "angle_deg": Field(number()),
+          "origin": Field(vector(), OMIT)}
+
+
+def read_body(raw, path, problems):
+    fields = {
+        "name": Field(_body_name), "material": Field(text()),
+        "geometry": Field(read_geometry),
+        "particles_per_cell": Field(integer(at_least(1)), 2),
+        "velocity": Field(vector(), [0.0, 0.0, 0.0]),
+    }
+    return read_mapping(raw, path, fields, problems)
+
+
+def _body_name(value, path, problems):
+    name = text()(value, path, problems)
+    if name is not INVALID and not _NAME.match(name):
+        problems.add(path, f"{name!r}: use letters, digits, _ and - only "
+                     "(names become column names in history.csv)")
+        return INVALID
+    return name
+
+
+def read_geometry(raw, path, problems):
+    common = {"rotate": Field(mapping(ROTATE), OMIT)}
+    geometry = read_tagged(raw, path, GEOMETRIES, problems, "geometry type", common)
+    if geometry is INVALID or has_invalid(geometry):
+        return geometry
+    CHECKS[geometry["type"]](geometry, path, problems)
+    if "rotate" in geometry and not has_invalid(geometry):
+        geometry["rotate"].setdefault("origin", reference_point(geometry))
+    return geometry
+
+
+def _check_box(g, path, problems):
+    bad = [f"{'xyz'[a]}: {g['min'][a]:g} >= {g['max'][a]:g}" for a in range(3)
+           if g["min"][a] >= g["max"][a]]
+    if bad:
+        problems.add(path, "min must be < max in every direction (" + "; ".join(bad) + ")")
+        g["max"] = INVALID
+
+
+def _check_cylinder(g, path, problems):
+    if g["inner_radius"] >= g["radius"]:
+        problems.add(join(path, "inner_radius"), f"must be < radius = {g['radius']:g}")
+        g["inner_radius"] = INVALID
+
+
+def _check_ogive(g, path, problems):
+    if ("tip" in g) == ("base" in g):
+        problems.add(path, "give exactly one of 'tip' and 'base'")
+        g["tip"] = INVALID
+    nose = nose_length(g["diameter"], g["crh"])
+    if nose > g["length"] * (1 + 1e-12):
+        problems.add(join(path, "length"), f"must be >= the nose length diameter * "
+                     f"sqrt(crh - 1/4) = {nose:g}")
+        g["length"] = INVALID
+    norm = math.sqrt(sum(c * c for c in g["direction"]))
+    g["direction"] = [c / norm for c in g["direction"]]
+
+
+CHECKS = {"box": _check_box, "cylinder": _check_cylinder, "sphere": lambda *a: None,
+          "ogive": _check_ogive, "mesh": lambda *a: None}
+
+
+def check_bodies_in_grid(bodies, grid, case_dir, problems):
+    """Fill every valid body; report unreadable meshes, empty bodies and bodies that
+    extend outside the grid box."""
+    for i, body in enumerate(bodies):
+        if body is INVALID or has_invalid(body["geometry"], body["particles_per_cell"]):
+            continue
+        path = join(join("bodies", i), "geometry")
+        try:
+            points, _ = fill_geometry(body["geometry"], grid, body["particles_per_cell"],
+                                      case_dir)
+        except MeshReadError as error:
+            problems.add(join(path, "file"),
+                         f"cannot read {body['geometry']['file']!r}: {error}")
+            continue
+        _check_points(points, grid, body["particles_per_cell"], path, problems)
+
+
+def check_mesh_files(bodies, case_dir, problems):
+    """Cheap check used when bodies are not filled: every mesh file exists."""
+    for i, body in enumerate(bodies):
+        geometry = body["geometry"] if body is not INVALID else INVALID
+        if geometry is INVALID or has_invalid(geometry) or geometry["type"] != "mesh":
+            continue
+        if not os.path.isfile(os.path.join(case_dir, geometry["file"])):
+            problems.add(join(join(join("bodies", i), "geometry"), "file"),
+                         f"cannot read {geometry['file']!r}: no such file")
+
+
+def _check_points(points, grid, particles_per_cell, path, problems):
+    if len(points) == 0:
+        spacing = grid["cell"] / particles_per_cell
+        problems.add(path, f"no particle falls inside the shape (particle spacing "
+                     f"{spacing:g}); is it smaller than the spacing?")
+        return
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    outside = [f"{'xyz'[a]} from {lo[a]:g} to {hi[a]:g}, grid {grid['min'][a]:g} to "
+               f"{grid['max'][a]:g}" for a in range(3)
+               if lo[a] < grid["min"][a] or hi[a] >= grid["max"][a]]
+    if outside:
+        problems.add(path, "body extends outside the grid box (" + "; ".join(outside) + ")")

@@ -1,0 +1,113 @@
+"""Validation of the ``materials:`` section against the material catalog.
+
+The catalog (``pmpm.materials.catalog``) says which models exist, which parameters each
+takes and their defaults; this module adds the physical ranges and the rules on elastic
+constants (exactly two of E, nu, K, G), ``eos``, ``bulk_viscosity`` and ``eps_fail``.
+"""
+from pmpm.materials import catalog
+
+from .errors import join
+from .fields import (INVALID, OMIT, REQUIRED, Field, at_least, at_most, between, choice, greater,
+                     has_invalid, mapping, number, read_mapping, read_tagged)
+
+# Physical range of each named parameter (catalog names); names not listed: any number.
+PARAM_CHECKS = {
+    "density": [greater(0)], "E": [greater(0)], "G": [greater(0)], "K": [greater(0)],
+    "nu": [between(-1.0, 0.5)], "A": [at_least(0)], "B": [at_least(0)], "n": [greater(0)],
+    "C": [at_least(0)], "eps_dot0": [greater(0)], "m": [at_least(0)],
+    "T_room": [greater(0)], "T_melt": [greater(0)], "cp": [at_least(0)],
+    "chi": [at_least(0), at_most(1)], "yield_stress": [greater(0)],
+    "tangent_modulus": [at_least(0)], "viscosity": [at_least(0)],
+    "tension_cutoff": [at_least(0)], "c0": [greater(0)], "s": [at_least(0)],
+    "gamma0": [at_least(0)], "linear": [at_least(0)], "quadratic": [at_least(0)],
+    "eps_fail": [at_least(0)],
+}
+
+
+def read_materials(raw, problems):
+    """Validated ``{name: material}``; INVALID if the section is not a mapping."""
+    if not isinstance(raw, dict) or not raw:
+        problems.add("materials", "expected a mapping of material name: {model: ..., ...} "
+                     "with at least one material")
+        return INVALID
+    return {str(name): read_material(value, join("materials", str(name)), problems)
+            for name, value in raw.items()}
+
+
+def read_material(raw, path, problems):
+    """One validated material dict (model params with defaults filled)."""
+    if not isinstance(raw, dict):
+        problems.add(path, "expected a mapping with a 'model' key")
+        return INVALID
+    model_name = read_mapping({"model": raw.get("model")}, path,
+                              {"model": Field(choice(catalog.MODELS, "model"))}, problems)
+    if model_name is INVALID or model_name["model"] is INVALID:
+        return INVALID
+    model = catalog.MODELS[model_name["model"]]
+    material = read_mapping(raw, path, material_fields(model), problems)
+    if material is not INVALID and not has_invalid(material):
+        check_material(material, model, path, problems)
+    return material
+
+
+def material_fields(model):
+    """The field table of a material of ``model`` (a catalog.Model)."""
+    fields = {"model": Field(choice(catalog.MODELS, "model"))}
+    for name, param in model.params.items():
+        default = _default(param.default)
+        fields[name] = Field(number(*PARAM_CHECKS.get(name, [])), default)
+    if model.elastic:
+        for name in catalog.ELASTIC_CONSTANTS:
+            fields[name] = Field(number(*PARAM_CHECKS[name]), OMIT)
+    if model.name != "rigid":
+        fields["eos"] = Field(read_eos, OMIT)
+        fields["bulk_viscosity"] = Field(mapping(_param_fields(catalog.BULK_VISCOSITY)), OMIT)
+    if model.plastic:
+        fields["eps_fail"] = Field(number(*PARAM_CHECKS["eps_fail"]), OMIT)
+    return fields
+
+
+def read_eos(raw, path, problems):
+    variants = {name: _param_fields(params) for name, (_, params) in catalog.EOS_MODELS.items()}
+    return read_tagged(raw, path, variants, problems, "eos type")
+
+
+def _default(default):
+    """A catalog default as a Field default (catalog None means required)."""
+    return REQUIRED if default is None else float(default)
+
+
+def _param_fields(params):
+    return {name: Field(number(*PARAM_CHECKS.get(name, [])),
+                        _default(p.default)) for name, p in params.items()}
+
+
+def check_material(material, model, path, problems):
+    """Checks that involve more than one key of a material."""
+    if model.elastic:
+        _check_elastic(material, model, path, problems)
+    if model.needs_eos and "eos" not in material:
+        problems.add(join(path, "eos"), f"missing (model {model.name!r} takes its pressure "
+                     "from an equation of state: " + " or ".join(catalog.EOS_MODELS) + ")")
+    if "T_melt" in material and material["T_melt"] <= material["T_room"]:
+        problems.add(join(path, "T_melt"), f"must be > T_room = {material['T_room']:g}")
+
+
+def _check_elastic(material, model, path, problems):
+    given = [k for k in catalog.ELASTIC_CONSTANTS if k in material]
+    if len(given) != 2:
+        got = ", ".join(given) if given else "none"
+        problems.add(path, f"model {model.name!r} needs exactly two of E, nu, K, G; "
+                     f"got {len(given)} ({got})")
+        return
+    pair = " and ".join(f"{k} = {material[k]:g}" for k in given)
+    try:
+        E, nu, K, G = catalog.elastic_from_any_two({k: material[k] for k in given})
+    except ZeroDivisionError:
+        problems.add(path, f"{pair} give nu = 0.5 (incompressible); need -1 < nu < 0.5")
+        return
+    if not (-1 < nu < 0.5 and E > 0 and G > 0):
+        problems.add(path, f"{pair} give nu = {nu:g}, E = {E:g}, G = {G:g}; "
+                     "need -1 < nu < 0.5 and E, G > 0")
+    elif "tangent_modulus" in material and material["tangent_modulus"] >= E:
+        problems.add(join(path, "tangent_modulus"), f"must be < E = {E:g}")

@@ -1,0 +1,136 @@
+"""Analytic shapes of a validated ``geometry`` mapping: bounds, containment, reference point.
+
+Each shape is given in its own unrotated frame; ``fill.py`` applies ``rotate``. All
+containment tests are vectorised over an (n, 3) array of points and inclusive up to a
+relative tolerance of ``TOL``.
+"""
+import math
+
+import numpy as np
+
+TOL = 1e-9
+AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def reference_point(geometry):
+    """The point a rotated lattice is anchored at and ``rotate`` turns about by default:
+    box: min corner; cylinder: base centre; sphere: centre; ogive: base (or tip when only
+    the tip is given); mesh: ``translate`` (where the mesh's origin lands)."""
+    kind = geometry["type"]
+    key = {"box": "min", "cylinder": "base", "sphere": "center", "mesh": "translate"}.get(kind)
+    if key is None:
+        key = "base" if "base" in geometry else "tip"
+    return [float(v) for v in geometry[key]]
+
+
+def make_shape(geometry):
+    """The analytic shape object for a box, cylinder, sphere or ogive geometry."""
+    return SHAPES[geometry["type"]](geometry)
+
+
+class Box:
+    def __init__(self, g):
+        self.lo, self.hi = np.asarray(g["min"], float), np.asarray(g["max"], float)
+
+    def bounds(self):
+        return self.lo, self.hi
+
+    def contains(self, p):
+        tol = TOL * np.max(self.hi - self.lo)
+        return np.all((p >= self.lo - tol) & (p <= self.hi + tol), axis=1)
+
+
+class Cylinder:
+    """Solid or hollow (``inner_radius`` > 0) circular cylinder along x, y or z."""
+
+    def __init__(self, g):
+        self.base = np.asarray(g["base"], float)
+        self.axis = np.eye(3)[AXES[g["axis"]]]
+        self.radius, self.length = g["radius"], g["length"]
+        self.inner = g.get("inner_radius", 0.0)
+
+    def bounds(self):
+        return axial_bounds(self.base, self.axis, self.length, self.radius)
+
+    def contains(self, p):
+        s, r2 = axial_coordinates(p, self.base, self.axis)
+        tol = TOL * max(self.radius, self.length)
+        inside = (s >= -tol) & (s <= self.length + tol) & (r2 <= (self.radius + tol) ** 2)
+        if self.inner > 0:
+            inside &= r2 >= (self.inner - tol) ** 2
+        return inside
+
+
+class Sphere:
+    def __init__(self, g):
+        self.center, self.radius = np.asarray(g["center"], float), g["radius"]
+
+    def bounds(self):
+        return self.center - self.radius, self.center + self.radius
+
+    def contains(self, p):
+        r2 = np.sum((p - self.center) ** 2, axis=1)
+        return r2 <= (self.radius * (1 + TOL)) ** 2
+
+
+class Ogive:
+    """Cylindrical shank with a tangent-ogive nose.
+
+    Notes
+    -----
+    With diameter D, caliber-radius-head psi (``crh``), ogive radius rho = psi D and
+    R = D/2, the nose is L_n = D sqrt(psi - 1/4) long; at distance t behind the tip's
+    start of nose its radius is y(t) = sqrt(rho^2 - t^2) - (rho - R), so y(0) = R and
+    y(L_n) = 0. ``crh`` = 0.5 gives a hemispherical nose.
+    """
+
+    def __init__(self, g):
+        self.axis = np.asarray(g["direction"], float)
+        self.axis /= np.linalg.norm(self.axis)
+        self.length, self.radius = g["length"], g["diameter"] / 2
+        self.rho = g["crh"] * g["diameter"]
+        self.nose = nose_length(g["diameter"], g["crh"])
+        tip_given = "base" not in g
+        self.base = np.asarray(g["tip"] if tip_given else g["base"], float)
+        if tip_given:
+            self.base = self.base - self.length * self.axis
+
+    def bounds(self):
+        return axial_bounds(self.base, self.axis, self.length, self.radius)
+
+    def contains(self, p):
+        s, r2 = axial_coordinates(p, self.base, self.axis)
+        t = np.clip(s - (self.length - self.nose), 0.0, None)
+        y = np.sqrt(np.clip(self.rho ** 2 - t ** 2, 0.0, None)) - (self.rho - self.radius)
+        tol = TOL * self.length
+        return (s >= -tol) & (s <= self.length + tol) & (r2 <= (np.clip(y, 0, None) + tol) ** 2)
+
+
+SHAPES = {"box": Box, "cylinder": Cylinder, "sphere": Sphere, "ogive": Ogive}
+
+
+def nose_length(diameter, crh):
+    """Length of a tangent-ogive nose: D sqrt(psi - 1/4)."""
+    return diameter * math.sqrt(crh - 0.25)
+
+
+def axial_coordinates(p, base, axis):
+    """Distance s along the unit ``axis`` from ``base`` and squared radial distance."""
+    rel = p - base
+    s = rel @ axis
+    return s, np.clip(np.sum(rel * rel, axis=1) - s * s, 0.0, None)
+
+
+def axial_bounds(base, axis, length, radius):
+    """Bounding box of a circular cylinder of ``radius`` from ``base`` along unit ``axis``."""
+    tip = base + length * axis
+    half_width = radius * np.sqrt(np.clip(1.0 - axis ** 2, 0.0, None))
+    return np.minimum(base, tip) - half_width, np.maximum(base, tip) + half_width
+
+
+def rotation_matrix(axis, angle_deg):
+    """Right-handed rotation by ``angle_deg`` about ``axis`` (Rodrigues' formula)."""
+    u = np.asarray(axis, float) / np.linalg.norm(axis)
+    a = math.radians(angle_deg)
+    cross = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    return math.cos(a) * np.eye(3) + math.sin(a) * cross + (1 - math.cos(a)) * np.outer(u, u)

@@ -1,0 +1,8 @@
+"""Everything MPI: the communicator wrapper, slab decomposition, shared-plane sums and
+particle migration. The only package in pmpm that imports mpi4py (lazily, on first use,
+so ``import pmpm`` stays cheap)."""
+from .world import World, world
+from .slabs import Slabs
+from .exchange import sum_shared_planes, migrate
+
+__all__ = ["World", "world", "Slabs", "sum_shared_planes", "migrate"]

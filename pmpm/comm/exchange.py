@@ -1,0 +1,77 @@
+"""Shared-plane sums of nodal arrays and particle migration between slabs."""
+import numpy as np
+
+
+def sum_shared_planes(world, planes, block):
+    """Add the neighbours' contributions to the nodes on shared slab planes, in place.
+
+    Parameters
+    ----------
+    world : World
+    planes : sequence of (neighbour_rank, local_plane_index)
+        The shared planes this rank holds (see ``Grid.shared_planes``); the neighbour holds
+        the same plane with the same transverse extent, so one packed message of
+        ``block[local_plane_index]`` per neighbour per phase suffices.
+    block : ndarray, shape (n_axis, n1, n2, n_components)
+        Local nodal values with the slab axis first, so a plane is one contiguous slice.
+
+    Notes
+    -----
+    Both neighbours compute ``own + theirs`` (one addition per value), which is bitwise
+    symmetric, so the two copies of a shared node stay identical.
+    """
+    if not planes:
+        return
+    MPI = _mpi()
+    requests, received = [], []
+    for neighbour, index in planes:
+        outgoing = np.ascontiguousarray(block[index])
+        incoming = np.empty_like(outgoing)
+        requests.append(world.raw.Irecv(incoming, source=neighbour, tag=71))
+        requests.append(world.raw.Isend(outgoing, dest=neighbour, tag=71))
+        received.append((index, incoming, outgoing))
+    MPI.Request.Waitall(requests)
+    for index, incoming, _ in received:
+        block[index] += incoming
+
+
+def migrate(world, destination, columns):
+    """Send every particle to the rank ``destination[p]`` with one Alltoallv per column.
+
+    Parameters
+    ----------
+    world : World
+    destination : int array (n,)
+    columns : dict of name -> array whose first axis is the particle
+
+    Returns
+    -------
+    dict or None
+        New columns (particles ordered by source rank, stable within a source), or None
+        when no particle changed rank anywhere (nothing was sent).
+    """
+    leaving = int(np.count_nonzero(destination != world.rank))
+    if world.sum(leaving) == 0:
+        return None
+    order = np.argsort(destination, kind="stable")
+    send_counts = np.bincount(destination, minlength=world.size).astype(np.int64)
+    recv_counts = np.empty_like(send_counts)
+    world.raw.Alltoall(send_counts, recv_counts)
+    return {name: _alltoallv(world, col[order], send_counts, recv_counts)
+            for name, col in columns.items()}
+
+
+def _alltoallv(world, sendbuf, send_counts, recv_counts):
+    width = int(np.prod(sendbuf.shape[1:], dtype=np.int64))
+    recvbuf = np.empty((int(recv_counts.sum()),) + sendbuf.shape[1:], dtype=sendbuf.dtype)
+    sc, rc = send_counts * width, recv_counts * width
+    sd = np.concatenate([[0], np.cumsum(sc)[:-1]])
+    rd = np.concatenate([[0], np.cumsum(rc)[:-1]])
+    world.raw.Alltoallv([np.ascontiguousarray(sendbuf).reshape(-1), (sc, sd)],
+                        [recvbuf.reshape(-1), (rc, rd)])
+    return recvbuf
+
+
+def _mpi():
+    from mpi4py import MPI
+    return MPI

@@ -1,0 +1,82 @@
+"""Slab decomposition of the coarse grid along one axis, balanced by particle count."""
+import numpy as np
+
+AXES = "xyz"
+
+
+class Slabs:
+    """Rank ``r`` owns coarse cells ``bounds[r] <= c < bounds[r+1]`` along ``axis``.
+
+    Nodes on the plane ``bounds[r]`` (0 < r < size) are shared by ranks r-1 and r.
+    """
+
+    def __init__(self, axis, bounds):
+        self.axis = int(axis)
+        self.bounds = np.asarray(bounds, dtype=np.int64)
+
+    @property
+    def size(self):
+        return len(self.bounds) - 1
+
+    def owner_of_cells(self, cells):
+        """Owning rank of each coarse cell index along the slab axis."""
+        ranks = np.searchsorted(self.bounds, cells, side="right") - 1
+        return np.clip(ranks, 0, self.size - 1)
+
+    def owned(self, rank):
+        return int(self.bounds[rank]), int(self.bounds[rank + 1])
+
+    def imbalance(self, cell_counts):
+        """max/mean - 1 of the particle counts per rank given counts per cell."""
+        per_rank = _per_rank_counts(cell_counts, self.bounds)
+        mean = per_rank.mean()
+        return float(per_rank.max() / mean - 1.0) if mean > 0 else 0.0
+
+    def __eq__(self, other):
+        return self.axis == other.axis and np.array_equal(self.bounds, other.bounds)
+
+    def describe(self):
+        return f"slabs along {AXES[self.axis]} at cells {self.bounds.tolist()}"
+
+
+def _per_rank_counts(cell_counts, bounds):
+    cumulative = np.concatenate([[0], np.cumsum(cell_counts)])
+    return cumulative[bounds[1:]] - cumulative[bounds[:-1]]
+
+
+def balanced_bounds(cell_counts, n_ranks):
+    """Cut ``len(cell_counts)`` cells into ``n_ranks`` contiguous non-empty ranges whose
+    particle counts are as equal as greedy cutting at the cumulative quantiles allows."""
+    n_cells = len(cell_counts)
+    if n_ranks > n_cells:
+        raise ValueError(f"{n_ranks} ranks but only {n_cells} cells along the slab axis")
+    cumulative = np.cumsum(cell_counts, dtype=np.float64)
+    total = cumulative[-1] if n_cells else 0.0
+    bounds = np.zeros(n_ranks + 1, dtype=np.int64)
+    bounds[-1] = n_cells
+    for r in range(1, n_ranks):
+        target = total * r / n_ranks
+        cut = int(np.searchsorted(cumulative, target, side="left")) + 1
+        if cut > 1 and abs(cumulative[cut - 2] - target) <= abs(cumulative[cut - 1] - target):
+            cut -= 1
+        bounds[r] = min(max(cut, bounds[r - 1] + 1), n_cells - (n_ranks - r))
+    return bounds
+
+
+def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto"):
+    """Pick the slab axis (given, or the one that balances best, ties to the smaller
+    cut plane) and its balanced bounds. ``cell_counts_per_axis`` holds three histograms."""
+    candidates = range(3) if axis == "auto" else [AXES.index(axis)]
+    best = None
+    for a in candidates:
+        counts = cell_counts_per_axis[a]
+        if len(counts) < n_ranks:
+            continue
+        slabs = Slabs(a, balanced_bounds(counts, n_ranks))
+        plane = np.prod([len(cell_counts_per_axis[b]) for b in range(3) if b != a])
+        key = (round(slabs.imbalance(counts), 3), plane)
+        if best is None or key < best[0]:
+            best = (key, slabs)
+    if best is None:
+        raise ValueError(f"the grid has fewer cells than the {n_ranks} ranks along every axis")
+    return best[1]

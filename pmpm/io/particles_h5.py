@@ -1,0 +1,195 @@
+"""Collective HDF5 writer of particle frames (``DIR/particles.h5``) and its XDMF companion.
+
+File layout::
+
+    /                     attrs: frames (count), body_names, ranks, software, run_stats
+                                 (JSON, at close), and the caller's attrs
+    /case                 scalar UTF-8 string: the case file text
+    /frames/000000        attrs: time, step, n (global particle count)
+        x (n,3) v (n,3) stress (n,6; attr components = "xx,yy,zz,xy,yz,zx")
+        eps_p density mass (n,) body (n,) int32  id (n,) int64  [extra columns]
+    /xdmf/polyvertex_N    int32 0 .. N-1: Polyvertex connectivity for the XDMF
+
+Rows of a frame are the ranks' local particles one rank after another (see
+:mod:`pmpm.io._collective`); sort by ``id`` to follow particles between frames.
+"""
+import os
+
+import h5py
+import numpy as np
+
+from . import _collective as C
+from ._files import dumps
+from .xdmf import topology_path, write_xdmf
+
+STRESS_COMPONENTS = "xx,yy,zz,xy,yz,zx"
+
+
+def _attr_value(value):
+    """A value h5py stores as an attribute: numbers, strings, lists of them; else JSON."""
+    if isinstance(value, (str, bool, int, float, np.generic, np.ndarray)):
+        return value
+    if isinstance(value, (list, tuple)) and value and all(isinstance(v, str) for v in value):
+        return list(value)
+    if isinstance(value, (list, tuple)) and value and all(isinstance(v, (int, float)) for v in value):
+        return np.asarray(value)
+    return dumps(value)
+
+
+class ParticleWriter:
+    """Writes particle frames collectively into one HDF5 file, and the XDMF after each frame.
+
+    Every method is collective over ``comm``: all ranks call it, ranks with no particles
+    included.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output directory (the file is ``path/particles.h5``), or the ``.h5`` file itself.
+        The XDMF goes beside it with the suffix ``.xdmf``.
+    comm : mpi4py.MPI.Comm
+        Communicator of the writing ranks (h5py's ``mpio`` driver needs the raw one).
+    case_text : str
+        The case file as given; stored as the ``/case`` dataset.
+    attrs : dict
+        Root attributes, notably ``body_names`` (list of str, index = ``body`` value).
+        Strings, numbers and lists of them are stored as they are, anything else as JSON.
+    restart_frame : int, optional
+        Continue an existing file after a restart: frames ``0 .. restart_frame-1`` are kept,
+        later ones (written after the checkpoint) are deleted, and the next frame written
+        gets index ``restart_frame``. Default: start a new file.
+    xdmf : bool, optional
+        Rewrite the XDMF after every frame (default True).
+
+    Notes
+    -----
+    ``case_text``, ``attrs``, frame times and run statistics are taken from rank 0 and
+    broadcast, so the collective metadata writes are identical on every rank. The file
+    stays open between frames and is flushed after each, so a crashed run leaves readable
+    frames and an XDMF that lists exactly those.
+    """
+
+    def __init__(self, path, comm, case_text, attrs, *, restart_frame=None, xdmf=True):
+        path = os.fspath(path)
+        self.path = path if path.endswith(".h5") else os.path.join(path, "particles.h5")
+        self.xdmf_path = os.path.splitext(self.path)[0] + ".xdmf"
+        self.comm, self.xdmf = comm, xdmf
+        self._frames = []
+        mode = "w" if restart_frame is None else "r+"
+        self._file = h5py.File(self.path, mode, driver="mpio", comm=comm)
+        self._write_header(C.bcast_root(comm, (case_text, dict(attrs))))
+        if restart_frame is not None:
+            self._truncate(int(restart_frame))
+
+    @property
+    def n_frames(self):
+        """Number of frames in the file (the index the next frame gets)."""
+        return len(self._frames)
+
+    @property
+    def frames(self):
+        """Per-frame records ``{group, time, n, columns, topology}`` as given to the XDMF."""
+        return list(self._frames)
+
+    def _write_header(self, header):
+        case_text, attrs = header
+        f = self._file
+        for key, value in attrs.items():
+            f.attrs[key] = _attr_value(value)
+        f.attrs["ranks"] = self.comm.size
+        f.attrs["software"] = "pmpm"
+        f.attrs["frames"] = 0
+        if "case" in f:
+            del f["case"]
+        raw = str(case_text).encode("utf-8")
+        case = f.create_dataset("case", shape=(), dtype=h5py.string_dtype("utf-8", max(len(raw), 1)))
+        C.write_root_only(case, np.bytes_(raw), self.comm.rank)
+        f.require_group("frames")
+        f.require_group("xdmf")
+
+    def _truncate(self, keep):
+        """Delete frames ``keep`` and later and rebuild the frame list from the file."""
+        frames = self._file["frames"]
+        names = sorted(frames, key=int)
+        if keep > len(names):
+            raise ValueError(f"restart_frame={keep} but {self.path} holds {len(names)} frames")
+        for name in names[keep:]:
+            del frames[name]
+        self._frames = [self._record(frames[name]) for name in names[:keep]]
+        self._file.attrs["frames"] = keep
+
+    @staticmethod
+    def _record(group):
+        columns = {name: (d.dtype.str, int(np.prod(d.shape[1:], dtype=int))) for name, d in group.items()}
+        n = int(group.attrs["n"])
+        return {"group": group.name, "time": float(group.attrs["time"]), "n": n,
+                "step": int(group.attrs["step"]), "columns": columns, "topology": topology_path(n)}
+
+    def write_frame(self, time, step, columns):
+        """Write one frame of every rank's local particles (collective).
+
+        Parameters
+        ----------
+        time : float
+            Simulated time of the frame (rank 0's value is stored).
+        step : int
+            Step number of the frame.
+        columns : dict of str to numpy.ndarray
+            Local particle columns, first axis = particle: ``x`` (n,3), ``v`` (n,3),
+            ``stress`` (n,6, Voigt xx,yy,zz,xy,yz,zx), ``eps_p``, ``density``, ``mass`` (n,),
+            ``body`` (n,) int32, ``id`` (n,) int64, and any extra 1D or 2D columns. All
+            ranks pass the same names; ranks with n = 0 pass empty arrays.
+
+        Returns
+        -------
+        int
+            Index of the frame written.
+        """
+        if "x" not in columns:
+            raise ValueError("a frame needs the column 'x' (positions)")
+        layout = C.agree_layout(self.comm, columns)
+        time, step = C.bcast_root(self.comm, (float(time), int(step)))
+        index = len(self._frames)
+        group = self._file["frames"].create_group(f"{index:06d}", track_order=True)
+        group.attrs.update({"time": time, "step": step, "n": layout.total})
+        datasets = C.create_columns(group, layout)
+        if "stress" in datasets:
+            datasets["stress"].attrs["components"] = STRESS_COMPONENTS
+        C.write_columns(datasets, layout, self.comm.rank, columns)
+        self._require_topology(layout)
+        self._file.attrs["frames"] = index + 1
+        self._file.flush()
+        self._frames.append(self._record(group))
+        self._write_xdmf()
+        return index
+
+    def _require_topology(self, layout):
+        """Write ``/xdmf/polyvertex_N`` (indices 0 .. N-1) once per distinct count N."""
+        path = topology_path(layout.total)
+        if layout.total == 0 or path in self._file:
+            return
+        dtype = np.int32 if layout.total < 2**31 else np.int64
+        dset = self._file.create_dataset(path, shape=(layout.total,), dtype=dtype, fill_time="never")
+        start, count = layout.offset(self.comm.rank), layout.counts[self.comm.rank]
+        C.write_rows(dset, start, np.arange(start, start + count, dtype=dtype), C.collective_xfer())
+
+    def _write_xdmf(self):
+        if self.xdmf and self.comm.rank == 0:
+            write_xdmf(self.xdmf_path, os.path.basename(self.path), self._frames)
+
+    def close(self, run_stats=None):
+        """Store the run statistics and close the file (collective; safe to call twice).
+
+        Parameters
+        ----------
+        run_stats : dict, optional
+            JSON-able statistics (wall time, steps, particle-steps per second, ...), taken
+            from rank 0 and stored as the root attribute ``run_stats`` (a JSON string).
+        """
+        if self._file is None:
+            return
+        stats = C.bcast_root(self.comm, run_stats)
+        if stats is not None:
+            self._file.attrs["run_stats"] = dumps(stats)
+        self._file.close()
+        self._file = None

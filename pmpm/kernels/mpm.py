@@ -1,0 +1,211 @@
+"""The particle and node loops of one update-stress-first step (seed 000 Eqs. 12-16,
+seed 001 Eqs. 27-34).
+
+Nodal arrays of a local block (flat, see ``pmpm.grid.LocalBlock``):
+``nodal`` (n_nodes, 8): mass, momentum (3), rigid mass, rigid momentum (3);
+``gvel`` (n_nodes, 3): velocity at the start of the step after boundary conditions;
+``force`` (n_nodes, 3); ``gnew`` (n_nodes, 6): velocity at the end of the step and
+acceleration.
+"""
+import numpy as np
+from numba import njit
+
+from ..materials.kernels import update_stress
+from .shape import trilinear
+
+FIXED, SLIP = 2, 1
+NODAL_COMPONENTS = 8
+
+
+@njit(cache=True)
+def particles_to_grid(x, v, mass, body, body_rigid, origin, inv_h, lo, strides, nodal):
+    """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
+    nodes = np.empty(8, np.int64)
+    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    for p in range(x.shape[0]):
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        m = mass[p]
+        slot = 4 if body_rigid[body[p]] else 0
+        for k in range(8):
+            n, mw = nodes[k], m * w[k]
+            nodal[n, slot] += mw
+            nodal[n, slot + 1] += mw * v[p, 0]
+            nodal[n, slot + 2] += mw * v[p, 1]
+            nodal[n, slot + 3] += mw * v[p, 2]
+
+
+@njit(cache=True, inline="always")
+def _boundary_mask(i, j, k, lo, n_cells, bc, out):
+    """out[d] = code of the box face node (i,j,k) lies on along d (0 if none)."""
+    g = (lo[0] + i, lo[1] + j, lo[2] + k)
+    for d in range(3):
+        out[d] = 0
+        if g[d] == 0:
+            out[d] = bc[2 * d]
+        elif g[d] == n_cells[d]:
+            out[d] = bc[2 * d + 1]
+
+
+@njit(cache=True, inline="always")
+def _constrain(vec, mask):
+    for d in range(3):
+        if mask[d] == FIXED:
+            vec[0] = vec[1] = vec[2] = 0.0
+            return
+    for d in range(3):
+        if mask[d] == SLIP:
+            vec[d] = 0.0
+
+
+@njit(cache=True)
+def nodal_velocities(nodal, shape, lo, strides, n_cells, bc, m_tiny, gvel):
+    """Velocity at the start of the step: momentum / mass, rigid bodies imposing theirs,
+    then fixed and slip faces."""
+    mask = np.zeros(3, np.int64)
+    vec = np.empty(3)
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            for k in range(shape[2]):
+                n = i * strides[0] + j * strides[1] + k * strides[2]
+                vec[:] = 0.0
+                if nodal[n, 4] > 0.0:
+                    for d in range(3):
+                        vec[d] = nodal[n, 5 + d] / nodal[n, 4]
+                elif nodal[n, 0] > m_tiny:
+                    for d in range(3):
+                        vec[d] = nodal[n, 1 + d] / nodal[n, 0]
+                _boundary_mask(i, j, k, lo, n_cells, bc, mask)
+                _constrain(vec, mask)
+                gvel[n, 0], gvel[n, 1], gvel[n, 2] = vec[0], vec[1], vec[2]
+
+
+@njit(cache=True)
+def integrate_nodes(nodal, force, gvel, dt, shape, lo, strides, n_cells, bc, m_tiny, gnew):
+    """Leap-frog on the nodes (Eq. 14): a = f/m, v_new = v + a dt; rigid nodes keep the
+    rigid velocity; fixed and slip faces constrain the acceleration."""
+    mask = np.zeros(3, np.int64)
+    acc = np.empty(3)
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            for k in range(shape[2]):
+                n = i * strides[0] + j * strides[1] + k * strides[2]
+                acc[:] = 0.0
+                if nodal[n, 4] <= 0.0 and nodal[n, 0] > m_tiny:
+                    for d in range(3):
+                        acc[d] = force[n, d] / nodal[n, 0]
+                    _boundary_mask(i, j, k, lo, n_cells, bc, mask)
+                    _constrain(acc, mask)
+                for d in range(3):
+                    gnew[n, d] = gvel[n, d] + acc[d] * dt
+                    gnew[n, 3 + d] = acc[d]
+
+
+@njit(cache=True)
+def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gnew):
+    """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
+    accelerations (Eq. 16); rigid particles move with their own velocity. Returns the
+    index of the first particle whose new position is not finite, else -1."""
+    nodes = np.empty(8, np.int64)
+    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    bad = -1
+    for p in range(x.shape[0]):
+        if body_rigid[body[p]]:
+            for d in range(3):
+                x[p, d] += dt * v[p, d]
+            continue
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
+        for k in range(8):
+            n, wk = nodes[k], w[k]
+            dx0 += wk * gnew[n, 0]
+            dx1 += wk * gnew[n, 1]
+            dx2 += wk * gnew[n, 2]
+            dv0 += wk * gnew[n, 3]
+            dv1 += wk * gnew[n, 4]
+            dv2 += wk * gnew[n, 5]
+        x[p, 0] += dt * dx0
+        x[p, 1] += dt * dx1
+        x[p, 2] += dt * dx2
+        v[p, 0] += dt * dv0
+        v[p, 1] += dt * dv1
+        v[p, 2] += dt * dv2
+        if bad < 0 and not (np.isfinite(x[p, 0]) and np.isfinite(x[p, 1]) and np.isfinite(x[p, 2])):
+            bad = p
+    return bad
+
+
+@njit(cache=True)
+def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, load, load_scale,
+                      body_code, body_prm, body_rigid, dt, h, gravity, load_vec,
+                      origin, inv_h, lo, strides, gvel, force):
+    """Update every particle's stress from the nodal velocities (Eq. 29 and the material
+    kernel), then scatter its internal and external force (Eqs. 31-32) in the same pass.
+
+    Returns
+    -------
+    (speed, bad): the largest wave speed plus particle speed (for the CFL step), and the
+    index of the first particle whose constitutive update failed (-1 if none).
+    """
+    nodes = np.empty(8, np.int64)
+    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    Lg = np.empty((3, 3))
+    fastest, bad = 0.0, -1
+    for p in range(x.shape[0]):
+        b = body[p]
+        if body_rigid[b]:
+            continue
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        velocity_gradient(nodes, gx, gy, gz, gvel, Lg)
+        c = update_stress(p, body_code[b], body_prm[b], dt, h, Lg, stress, F, rho,
+                          eps_p, e_int, temp, q)
+        if c < 0.0 and bad < 0:
+            bad = p
+        speed = c + np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2)
+        fastest = max(fastest, speed)
+        scatter_force(p, nodes, w, gx, gy, gz, mass, rho, stress, q, gravity, load, load_scale,
+                      load_vec, force)
+    return fastest, bad
+
+
+@njit(cache=True, inline="always")
+def velocity_gradient(nodes, gx, gy, gz, gvel, Lg):
+    """Lg[i, j] = sum_I v_Ii dN_I/dx_j."""
+    Lg[:, :] = 0.0
+    for k in range(8):
+        n = nodes[k]
+        for i in range(3):
+            vi = gvel[n, i]
+            Lg[i, 0] += vi * gx[k]
+            Lg[i, 1] += vi * gy[k]
+            Lg[i, 2] += vi * gz[k]
+
+
+@njit(cache=True, inline="always")
+def scatter_force(p, nodes, w, gx, gy, gz, mass, rho, stress, q, gravity, load, load_scale,
+                  load_vec, force):
+    """f_I += -V_p (sigma_p - q_p I) . grad N_I + N_I (m_p g + load_p)."""
+    vol = mass[p] / rho[p]
+    sxx, syy, szz = stress[p, 0] - q[p], stress[p, 1] - q[p], stress[p, 2] - q[p]
+    sxy, syz, szx = stress[p, 3], stress[p, 4], stress[p, 5]
+    ex, ey, ez = mass[p] * gravity[0], mass[p] * gravity[1], mass[p] * gravity[2]
+    if load[p] >= 0:
+        ex += load_scale[p] * load_vec[load[p], 0]
+        ey += load_scale[p] * load_vec[load[p], 1]
+        ez += load_scale[p] * load_vec[load[p], 2]
+    for k in range(8):
+        n = nodes[k]
+        force[n, 0] += w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
+        force[n, 1] += w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
+        force[n, 2] += w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+
+
+@njit(cache=True)
+def cell_keys(x, origin, inv_h, n_cells):
+    """Flat coarse cell index of each particle (for sorting particles by cell)."""
+    keys = np.empty(x.shape[0], np.int64)
+    for p in range(x.shape[0]):
+        i = np.int64(np.floor((x[p, 0] - origin[0]) * inv_h))
+        j = np.int64(np.floor((x[p, 1] - origin[1]) * inv_h))
+        k = np.int64(np.floor((x[p, 2] - origin[2]) * inv_h))
+        keys[p] = (i * n_cells[1] + j) * n_cells[2] + k
+    return keys

@@ -1,0 +1,36 @@
+"""Compile (or load from Numba's cache) every kernel of the step on a one-particle
+problem, so that compile time is measured apart from run time."""
+import time
+
+import numpy as np
+
+from ..materials import layout
+from . import mpm
+
+
+def warm_up():
+    """Return the seconds spent compiling or loading the kernels."""
+    started = time.perf_counter()
+    origin, inv_h = np.zeros(3), 1.0
+    lo, strides, shape = np.zeros(3, np.int64), np.array([4, 2, 1], np.int64), np.full(3, 2, np.int64)
+    x = np.full((1, 3), 0.5)
+    v = np.zeros((1, 3))
+    ones = np.ones(1)
+    body = np.zeros(1, np.int32)
+    rigid = np.zeros(1, np.bool_)
+    nodal = np.zeros((8, mpm.NODAL_COMPONENTS))
+    gvel, force, gnew = np.zeros((8, 3)), np.zeros((8, 3)), np.zeros((8, 6))
+    prm = np.zeros((1, layout.N_SLOTS))
+    prm[0, [layout.RHO0, layout.E, layout.G, layout.K]] = 1.0
+    bc, n_cells = np.zeros(6, np.int64), np.ones(3, np.int64)
+    mpm.particles_to_grid(x, v, ones, body, rigid, origin, inv_h, lo, strides, nodal)
+    mpm.nodal_velocities(nodal, shape, lo, strides, n_cells, bc, 0.0, gvel)
+    mpm.stress_and_forces(x, v, ones.copy(), ones.copy(), np.zeros((1, 6)),
+                          np.eye(3).reshape(1, 9).copy(), np.zeros(1), np.zeros(1), np.zeros(1),
+                          np.zeros(1), body, np.full(1, -1, np.int32), np.zeros(1),
+                          np.zeros(1, np.int64), prm, rigid, 1e-3, 1.0, np.zeros(3),
+                          np.zeros((1, 3)), origin, inv_h, lo, strides, gvel, force)
+    mpm.integrate_nodes(nodal, force, gvel, 1e-3, shape, lo, strides, n_cells, bc, 0.0, gnew)
+    mpm.grid_to_particles(x, v, body, rigid, 1e-3, origin, inv_h, lo, strides, gnew)
+    mpm.cell_keys(x, origin, inv_h, n_cells)
+    return time.perf_counter() - started

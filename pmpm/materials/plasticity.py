@@ -1,0 +1,188 @@
+"""J2 (von Mises) plasticity with isotropic hardening, rate and thermal terms (Numba).
+
+Flow stress, seed 001 Eqs. 37 and 39 and seed 004 Sec. 4.2::
+
+    sigma_y = (A + B eps_p^n) (1 + C ln max(eps_dot_p / eps_dot0, 1)) (1 - T*^m)
+
+``J2_PLASTIC`` rows leave C and m at 0, so both factors are 1 and the same return map
+serves j2_linear, j2_power and johnson_cook.
+"""
+import math
+
+from numba import njit
+
+from .layout import A, B, C, EPS_DOT0, M, N, T_MELT, T_ROOM
+from .tensors import scale, von_mises
+
+MAX_NEWTON = 50
+NEWTON_RTOL = 1e-12
+
+
+@njit(cache=True)
+def hardening(a, b, n, eps):
+    """Strain-hardening term ``a + b eps^n`` and its slope with respect to ``eps``.
+
+    Notes
+    -----
+    At ``eps = 0`` the slope is infinite for ``0 < n < 1`` (and ``b != 0``); the return
+    map brackets its root, so it never relies on that slope.
+    """
+    if eps <= 0.0:
+        if b == 0.0 or n > 1.0:
+            return a, 0.0
+        if n == 1.0:
+            return a, b
+        return a, math.inf
+    if n == 1.0:
+        return a + b * eps, b
+    en = eps ** n
+    return a + b * en, n * b * en / eps
+
+
+@njit(cache=True)
+def rate_factor(c, eps_dot0, dlam, dt):
+    """Johnson-Cook rate factor ``1 + c ln max(eps_dot_p/eps_dot0, 1)`` and its slope in dlam.
+
+    The plastic strain rate is ``eps_dot_p = dlam / dt``, the plastic strain increment of
+    the step over the step (seed 004 Sec. 4.2), so the factor is implicit in ``dlam``.
+    """
+    if c == 0.0 or eps_dot0 <= 0.0 or dt <= 0.0:
+        return 1.0, 0.0
+    ratio = dlam / (dt * eps_dot0)
+    if ratio <= 1.0:
+        return 1.0, 0.0
+    return 1.0 + c * math.log(ratio), c / dlam
+
+
+@njit(cache=True)
+def thermal_factor(m, temp, t_room, t_melt):
+    """Johnson-Cook thermal softening ``1 - T*^m``, ``T* = (T - T_room)/(T_melt - T_room)``.
+
+    ``T*`` is clipped to [0, 1]; ``m = 0`` (or ``T_melt <= T_room``) means no softening
+    (not ``1 - T*^0 = 0``).
+    """
+    if m == 0.0 or t_melt <= t_room:
+        return 1.0
+    t_star = min(max((temp - t_room) / (t_melt - t_room), 0.0), 1.0)
+    return 1.0 - t_star ** m
+
+
+@njit(cache=True)
+def flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta):
+    """Flow stress after a plastic increment ``dlam`` and its slope ``d sigma_y / d dlam``.
+
+    ``theta`` is the thermal factor, held at its start-of-step value.
+    """
+    hard, dhard = hardening(a, b, n, eps_p + dlam)
+    rate, drate = rate_factor(c, eps_dot0, dlam, dt)
+    return theta * hard * rate, theta * (dhard * rate + hard * drate)
+
+
+@njit(cache=True)
+def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
+    """Equivalent plastic strain increment of a radial return.
+
+    Solves ``r(dlam) = q_trial - 3 g dlam - sigma_y(eps_p + dlam, dlam/dt) = 0``.
+
+    Parameters
+    ----------
+    q_trial : float
+        Von Mises stress of the elastic trial deviator.
+    g : float
+        Shear modulus.
+    eps_p, dt : float
+        Plastic strain at the start of the step, time step.
+    a, b, n, c, eps_dot0, theta : float
+        Flow stress constants and thermal factor, see :func:`flow_stress`.
+
+    Returns
+    -------
+    dlam : float
+        Plastic strain increment (0 for an elastic step).
+    sigma_y : float
+        Flow stress at the end of the step.
+    converged : bool
+        False when the iteration did not converge in ``MAX_NEWTON`` iterations.
+
+    Notes
+    -----
+    Linear hardening without rate term (``n = 1`` or ``b = 0``, ``c = 0``) has the closed
+    form ``dlam = (q_trial - sigma_y0)/(3g + theta b)``. Otherwise a safeguarded Newton
+    iteration is used. ``sigma_y`` does not decrease with ``dlam`` (b, c >= 0), so the root
+    lies in ``[0, (q_trial - sigma_y0)/(3g)]`` (the perfectly plastic increment, where
+    ``r <= 0``). Newton starts at that upper bound; each iterate narrows the bracket by the
+    sign of ``r``, and a step that leaves the bracket (for instance the infinite slope at
+    ``eps_p = 0`` with ``n < 1``) is replaced by bisection.
+    """
+    sy0, _ = flow_stress(0.0, eps_p, dt, a, b, n, c, eps_dot0, theta)
+    if q_trial <= sy0:
+        return 0.0, sy0, True
+    if c == 0.0 and (n == 1.0 or b == 0.0):
+        slope = theta * b if n == 1.0 else 0.0
+        dlam = (q_trial - sy0) / (3.0 * g + slope)
+        return dlam, sy0 + slope * dlam, dlam >= 0.0
+    lo = 0.0
+    hi = (q_trial - sy0) / (3.0 * g)
+    dlam = hi
+    tol = NEWTON_RTOL * q_trial
+    for _ in range(MAX_NEWTON):
+        sy, dsy = flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta)
+        r = q_trial - 3.0 * g * dlam - sy
+        if abs(r) <= tol or hi - lo <= 4e-16 * hi:
+            return dlam, sy, True
+        if r > 0.0:
+            lo = dlam
+        else:
+            hi = dlam
+        step = r / (3.0 * g + dsy) if math.isfinite(dsy) else 0.0
+        trial = dlam + step
+        dlam = trial if lo < trial < hi else 0.5 * (lo + hi)
+    return dlam, sy, False
+
+
+@njit(cache=True)
+def radial_return(s_trial, q_trial, sigma_y):
+    """Scale the trial deviator back onto the yield surface: ``s = s_trial sigma_y/q_trial``."""
+    if q_trial <= sigma_y:
+        return s_trial
+    return scale(s_trial, sigma_y / q_trial)
+
+
+@njit(cache=True)
+def return_map(prm, g, s_trial, eps_p, temp, dt):
+    """J2 return map of one particle for a packed J2_PLASTIC or JOHNSON_COOK row.
+
+    Parameters
+    ----------
+    prm : float64[N_SLOTS]
+        Packed material row.
+    g : float
+        Shear modulus.
+    s_trial : tuple of 6 float
+        Elastic trial deviator.
+    eps_p, temp : float
+        Equivalent plastic strain and temperature at the start of the step.
+    dt : float
+        Time step.
+
+    Returns
+    -------
+    s : tuple of 6 float
+        Deviatoric stress on (or inside) the yield surface.
+    dlam : float
+        Equivalent plastic strain increment.
+    sigma_y : float
+        Flow stress at the end of the step.
+    converged : bool
+        False when the scalar equation failed to converge.
+
+    Notes
+    -----
+    The thermal factor uses the start-of-step temperature (adiabatic heating is applied
+    after the step, explicitly).
+    """
+    theta = thermal_factor(prm[M], temp, prm[T_ROOM], prm[T_MELT])
+    q_trial = von_mises(s_trial)
+    dlam, sigma_y, ok = plastic_multiplier(q_trial, g, eps_p, dt, prm[A], prm[B], prm[N],
+                                           prm[C], prm[EPS_DOT0], theta)
+    return radial_return(s_trial, q_trial, sigma_y), dlam, sigma_y, ok

@@ -1,0 +1,34 @@
+"""Global observables: energies and per-body mass, centroid, velocity and bounding box."""
+import numpy as np
+
+
+def energies(world, particles):
+    p = particles
+    kinetic = 0.5 * float(np.sum(p.mass * np.einsum("ij,ij->i", p.v, p.v)))
+    internal = float(np.sum(p.mass * p.e_int))
+    kinetic, internal = world.sum(np.array([kinetic, internal]))
+    return {"kinetic": kinetic, "internal": internal, "total": kinetic + internal}
+
+
+def body_stats(world, particles, names):
+    """Per body: mass, n_particles, centroid, velocity (mass-weighted), bbox_min/max."""
+    p, nb = particles, len(names)
+    sums = np.zeros((nb, 8))
+    box = np.full((nb, 6), -np.inf)
+    for b in range(nb):
+        mine = p.body == b
+        if not mine.any():
+            continue
+        m = p.mass[mine]
+        sums[b] = [m.sum(), mine.sum(), *(m @ p.x[mine]), *(m @ p.v[mine])]
+        box[b, :3], box[b, 3:] = -p.x[mine].min(axis=0), p.x[mine].max(axis=0)
+    sums, box = world.sum(sums), world.max(box)
+    stats = {}
+    for b, name in enumerate(names):
+        mass = sums[b, 0]
+        safe = mass if mass > 0 else 1.0
+        stats[name] = {"mass": mass, "n_particles": int(sums[b, 1]),
+                       "centroid": (sums[b, 2:5] / safe).tolist(),
+                       "velocity": (sums[b, 5:8] / safe).tolist(),
+                       "bbox_min": (-box[b, :3]).tolist(), "bbox_max": box[b, 3:].tolist()}
+    return stats

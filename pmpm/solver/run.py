@@ -1,0 +1,163 @@
+"""The run loop: time-step control, output schedule, history, checkpoints, summary."""
+import os
+import time as clock
+
+import numpy as np
+
+from .. import io
+from .observe import body_stats, energies
+from .progress import Progress
+
+SORT_EVERY = 20
+
+
+class Schedule:
+    """Output times: ``frames`` equal intervals up to ``end`` plus any listed ``times``."""
+
+    def __init__(self, output, end):
+        n = max(int(output.get("frames", 10)), 1)
+        times = set(np.linspace(0.0, end, n + 1)[1:].tolist())
+        times.update(t for t in output.get("times", []) if 0 < t <= end)
+        self.times = sorted(times)
+
+    def next_after(self, t, eps):
+        return next((s for s in self.times if s > t + eps), None)
+
+
+class Runner:
+    """Drives a :class:`Simulation` to ``time.end`` and writes the run contract's files."""
+
+    def __init__(self, sim, out_dir, case_text, progress=True):
+        self.sim, self.world, self.out = sim, sim.world, out_dir
+        self.case = sim.case
+        self.end = float(self.case["time"]["end"])
+        self.cfl = float(self.case["time"].get("cfl", 0.5))
+        self.dt_max = self.case["time"].get("dt_max") or np.inf
+        self.output = self.case.get("output", {})
+        self.schedule = Schedule(self.output, self.end)
+        self.case_text = case_text
+        self.progress = Progress(self.end, progress and self.world.is_root)
+        self.particle_steps = 0
+        self.step_wall = 0.0
+        self.frame_index = 0
+        self.n_initial = self.world.sum(sim.particles.n)
+
+    # -- run ---------------------------------------------------------------------
+    def run(self, restarted=False, compile_s=0.0):
+        self.compile_s = compile_s
+        self.open_outputs(restarted)
+        if not restarted:
+            self.write_frame()
+            self.write_history_row(0.0)
+        started = clock.perf_counter()
+        dt = 0.0
+        while self.sim.time < self.end * (1 - 1e-12):
+            dt = self.next_dt()
+            self.advance(dt)
+            self.after_step(dt)
+        self.wall_s = clock.perf_counter() - started
+        self.finish(dt)
+
+    def next_dt(self):
+        sim = self.sim
+        fastest = sim.stepper.fastest if sim.step_count > 0 or sim.stepper.fastest > 0 \
+            else sim.initial_speed()
+        dt = min(self.cfl * sim.grid.h / fastest if fastest > 0 else self.dt_max, self.dt_max)
+        target = self.schedule.next_after(sim.time, 1e-12 * self.end) or self.end
+        return min(dt, target - sim.time)
+
+    def advance(self, dt):
+        sim = self.sim
+        sim.stepper.load_vec = sim.load_vectors(sim.time + 0.5 * dt)
+        n = self.world.sum(sim.particles.n)
+        tick = clock.perf_counter()
+        sim.stepper.step(dt)
+        self.step_wall += clock.perf_counter() - tick
+        self.particle_steps += n
+        sim.time += dt
+        sim.step_count += 1
+
+    def after_step(self, dt):
+        sim, step = self.sim, self.sim.step_count
+        if step % SORT_EVERY == 0:
+            sim.stepper.sort_by_cell()
+        decomposition = self.case.get("decomposition", {})
+        if step % int(decomposition.get("check_every", 50)) == 0:
+            sim.stepper.rebalance(float(decomposition.get("rebalance_threshold", 0.2)))
+        at_frame = any(abs(sim.time - t) <= 1e-9 * self.end for t in self.schedule.times)
+        if at_frame:
+            self.write_frame()
+        if at_frame or step % int(self.output.get("history_every", 10)) == 0:
+            self.write_history_row(dt)
+        if self.checkpoint_due(at_frame):
+            self.save_checkpoint(dt)
+        self.progress.update(step, sim.time, dt, self.rate())
+
+    def rate(self):
+        return self.particle_steps / self.step_wall if self.step_wall > 0 else 0.0
+
+    # -- outputs -----------------------------------------------------------------
+    def open_outputs(self, restarted):
+        names = self.sim.bodies.names
+        self.writer = io.ParticleWriter(os.path.join(self.out, "particles.h5"), self.world.raw,
+                                        self.case_text, {"body_names": names},
+                                        append=restarted)
+        self.frame_index = self.writer.n_frames
+        self.history = io.HistoryWriter(os.path.join(self.out, "history.csv"), names) \
+            if self.world.is_root else None
+
+    def write_frame(self):
+        p = self.sim.particles
+        self.writer.write_frame(self.sim.time, self.sim.step_count, {
+            "x": p.x, "v": p.v, "stress": p.stress, "eps_p": p.eps_p, "density": p.rho,
+            "mass": p.mass, "body": p.body, "id": p.id, "temp": p.temp, "e_int": p.e_int})
+        self.frame_index += 1
+
+    def write_history_row(self, dt):
+        e = energies(self.world, self.sim.particles)
+        stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)
+        if self.history is not None:
+            rows = {name: s["centroid"] + s["velocity"] for name, s in stats.items()}
+            self.history.row(self.sim.step_count, self.sim.time, dt,
+                             (e["kinetic"], e["internal"], e["total"]), rows)
+
+    def checkpoint_due(self, at_frame):
+        every = int(self.output.get("checkpoint_every", 0))
+        return (self.sim.step_count % every == 0) if every > 0 else at_frame
+
+    def save_checkpoint(self, dt):
+        sim = self.sim
+        scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
+                   "slab_axis": sim.slabs.axis, "slab_bounds": sim.slabs.bounds.tolist(),
+                   "particle_steps": self.particle_steps}
+        io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
+
+    def finish(self, dt):
+        sim = self.sim
+        if self.frame_index == 0 or not any(abs(sim.time - t) <= 1e-9 * self.end
+                                            for t in self.schedule.times):
+            self.write_frame()
+        summary = self.summary()
+        self.writer.close(summary)
+        if self.history is not None:
+            self.history.close()
+        if self.world.is_root:
+            io.write_summary(os.path.join(self.out, "summary.json"), summary)
+
+    def summary(self):
+        sim = self.sim
+        return {
+            "case": self.case.get("title", ""),
+            "ranks": self.world.size,
+            "n_particles": {"initial": self.n_initial,
+                            "final": self.world.sum(sim.particles.n)},
+            "n_steps": sim.step_count, "t_end": sim.time,
+            "wall_s": self.wall_s, "step_wall_s": self.step_wall,
+            "compile_s": self.compile_s,
+            "particle_steps_per_s": self.rate(),
+            "particle_steps_per_s_per_rank": self.rate() / self.world.size,
+            "particles_lost": int(sim.stepper.lost),
+            "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
+            "energy": energies(self.world, sim.particles),
+            "bodies": body_stats(self.world, sim.particles, sim.bodies.names),
+        }

@@ -1,0 +1,178 @@
+"""One explicit update-stress-first step (DESIGN.md "One time step"), phase by phase."""
+import numpy as np
+
+from ..comm import sum_shared_planes, migrate
+from ..comm.slabs import balanced_bounds, Slabs
+from ..grid import LocalBlock
+from ..kernels import mpm
+from .errors import SolverError
+
+
+class Workspace:
+    """Nodal arrays reused from step to step (grown, never shrunk)."""
+
+    def __init__(self):
+        self._buffers = {}
+
+    def zeros(self, name, rows, width):
+        buf = self._buffers.get(name)
+        if buf is None or buf.shape[0] < rows:
+            buf = np.empty((max(rows, 1024) * 5 // 4, width))
+            self._buffers[name] = buf
+        view = buf[:rows]
+        view.fill(0.0)
+        return view
+
+
+class Stepper:
+    """Advances the particles of one rank by one time step, in step with the other ranks.
+
+    Parameters
+    ----------
+    world : comm.World
+    grid : grid.CoarseGrid
+    slabs : comm.Slabs
+    particles : particles.Particles
+    bodies : solver.bodies.BodyTable
+    gravity : (3,) array
+    """
+
+    def __init__(self, world, grid, slabs, particles, bodies, gravity, m_tiny):
+        self.world, self.grid, self.slabs = world, grid, slabs
+        self.particles, self.bodies = particles, bodies
+        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self.m_tiny = m_tiny
+        self.work = Workspace()
+        self.load_vec = np.zeros((1, 3))
+        self.fastest = 0.0
+        self.lost = 0
+        self.block = None
+        self.cell_range = self.global_cell_range()
+
+    # -- the step ---------------------------------------------------------------
+    def step(self, dt):
+        self.build_block()
+        self.map_particles_to_grid()
+        self.nodal_velocities_with_boundaries()
+        self.update_stress_and_nodal_forces(dt)
+        self.integrate_nodal_momentum(dt)
+        self.update_particles(dt)
+        self.migrate_and_check()
+
+    def build_block(self):
+        lo, hi = self.cell_range
+        self.block = LocalBlock.for_rank(self.slabs, self.world.rank, lo, hi)
+
+    def map_particles_to_grid(self):
+        p, b = self.particles, self.block
+        self.nodal = self.work.zeros("nodal", b.n_nodes, mpm.NODAL_COMPONENTS)
+        mpm.particles_to_grid(p.x, p.v, p.mass, p.body, self.bodies.rigid, self.grid.origin,
+                              1.0 / self.grid.h, b.lo, b.strides, self.nodal)
+        sum_shared_planes(self.world, b.shared_planes, b.as_planes(self.nodal))
+
+    def nodal_velocities_with_boundaries(self):
+        b = self.block
+        self.gvel = self.work.zeros("gvel", b.n_nodes, 3)
+        mpm.nodal_velocities(self.nodal, b.shape, b.lo, b.strides, self.grid.n_cells,
+                             self.grid.boundary, self.m_tiny, self.gvel)
+
+    def update_stress_and_nodal_forces(self, dt):
+        p, b, g = self.particles, self.block, self.grid
+        self.force = self.work.zeros("force", b.n_nodes, 3)
+        self.fastest, bad = mpm.stress_and_forces(
+            p.x, p.v, p.mass, p.rho, p.stress, p.F, p.eps_p, p.e_int, p.temp, p.q, p.body,
+            p.load, p.load_scale, self.bodies.codes, self.bodies.params, self.bodies.rigid,
+            dt, g.h, self.gravity, self.load_vec, g.origin, 1.0 / g.h, b.lo, b.strides,
+            self.gvel, self.force)
+        self.raise_if_any(bad, "constitutive update failed (NaN, non-convergence or "
+                               "non-positive density)")
+        sum_shared_planes(self.world, b.shared_planes, b.as_planes(self.force))
+
+    def integrate_nodal_momentum(self, dt):
+        b = self.block
+        self.gnew = self.work.zeros("gnew", b.n_nodes, 6)
+        mpm.integrate_nodes(self.nodal, self.force, self.gvel, dt, b.shape, b.lo, b.strides,
+                            self.grid.n_cells, self.grid.boundary, self.m_tiny, self.gnew)
+
+    def update_particles(self, dt):
+        p, b, g = self.particles, self.block, self.grid
+        bad = mpm.grid_to_particles(p.x, p.v, p.body, self.bodies.rigid, dt, g.origin,
+                                    1.0 / g.h, b.lo, b.strides, self.gnew)
+        self.raise_if_any(bad, "position is not finite")
+
+    def migrate_and_check(self):
+        """Drop particles that left the grid box, send the rest to their slab owners,
+        and agree on the next step's cell range and wave speed in one reduction."""
+        self.remove_escaped()
+        self.send_to_owners(self.slabs)
+        self.cell_range = self.global_cell_range()
+
+    # -- helpers ----------------------------------------------------------------
+    def remove_escaped(self):
+        inside = self.grid.inside(self.particles.x)
+        escaped = int(np.count_nonzero(~inside))
+        if escaped:
+            self.particles.take(inside)
+        self.lost += self.world.sum(escaped)
+
+    def send_to_owners(self, slabs):
+        p = self.particles
+        cells = self.grid.cells_of(p.x)[:, slabs.axis] if p.n else np.zeros(0, np.int64)
+        owners = slabs.owner_of_cells(cells).astype(np.int64)
+        moved = migrate(self.world, owners, p.columns())
+        if moved is not None:
+            p.set_columns(moved)
+
+    def global_cell_range(self):
+        """Lowest and highest coarse cell holding a particle on any rank, and the
+        fastest wave on any rank, in one MAX reduction."""
+        p = self.particles
+        local = np.full(7, -np.iinfo(np.int64).max // 2, dtype=np.float64)
+        if p.n:
+            cells = self.grid.cells_of(p.x)
+            local[:3], local[3:6] = -cells.min(axis=0), cells.max(axis=0)
+        local[6] = self.fastest
+        glob = self.world.max(local)
+        self.fastest = glob[6]
+        lo = (-glob[:3]).astype(np.int64)
+        hi = glob[3:6].astype(np.int64)
+        if np.any(hi < lo):          # no particle anywhere: an empty block
+            lo, hi = np.zeros(3, np.int64), -np.ones(3, np.int64)
+        return lo, hi
+
+    def raise_if_any(self, bad, what):
+        """Collective: if any rank has a bad particle, every rank raises the same error."""
+        message = None
+        if bad >= 0:
+            p = self.particles
+            message = (f"particle id {int(p.id[bad])} of body "
+                       f"'{self.bodies.names[int(p.body[bad])]}': {what}")
+        if self.world.any(message is not None):
+            raise SolverError(self.world.first_message(message))
+
+    def rebalance(self, threshold):
+        """Move slab planes when max/mean particle count - 1 exceeds ``threshold``.
+        Returns the imbalance before any move, and whether the slabs moved."""
+        counts = self.slab_axis_histogram()
+        imbalance = self.slabs.imbalance(counts)
+        if self.world.size == 1 or imbalance <= threshold:
+            return imbalance, False
+        new = Slabs(self.slabs.axis, balanced_bounds(counts, self.world.size))
+        if new == self.slabs:
+            return imbalance, False
+        self.slabs = new
+        self.send_to_owners(new)
+        self.cell_range = self.global_cell_range()
+        return imbalance, True
+
+    def slab_axis_histogram(self):
+        a = self.slabs.axis
+        cells = self.grid.cells_of(self.particles.x)[:, a]
+        local = np.bincount(cells, minlength=int(self.grid.n_cells[a])).astype(np.int64)
+        return self.world.sum(local)
+
+    def sort_by_cell(self):
+        """Order particles by coarse cell so scatter and gather walk memory in order."""
+        p = self.particles
+        keys = mpm.cell_keys(p.x, self.grid.origin, 1.0 / self.grid.h, self.grid.n_cells)
+        p.take(np.argsort(keys, kind="stable"))

@@ -1,0 +1,95 @@
+"""Serial tests of the step kernels on small arrays."""
+import numpy as np
+import pytest
+
+from pmpm.grid import LocalBlock, FIXED, SLIP
+from pmpm.comm.slabs import Slabs
+from pmpm.kernels import mpm
+from pmpm.kernels.shape import trilinear
+from numba import njit
+
+
+@njit
+def _shape_of(x, p, origin, inv_h, lo, strides):
+    nodes = np.empty(8, np.int64)
+    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+    return nodes, w, gx, gy, gz
+
+
+def block(n=4):
+    return LocalBlock(np.zeros(3, np.int64), np.full(3, n + 1), 0, [])
+
+
+def test_shape_functions_partition_unity_and_reproduce_linear_fields():
+    rng = np.random.default_rng(1)
+    x = rng.uniform(0.1, 3.9, size=(50, 3))
+    b = block()
+    for p in range(len(x)):
+        nodes, w, gx, gy, gz = _shape_of(x, p, np.zeros(3), 1.0, b.lo, b.strides)
+        assert w.sum() == pytest.approx(1.0, abs=1e-14)
+        assert abs(gx.sum()) + abs(gy.sum()) + abs(gz.sum()) < 1e-13
+        coords = np.stack(np.unravel_index(nodes, tuple(b.shape)), axis=1).astype(float)
+        assert w @ coords == pytest.approx(x[p], abs=1e-12)          # reproduces x
+        grad = np.stack([gx, gy, gz]) @ coords                        # d x_i / d x_j = I
+        assert grad == pytest.approx(np.eye(3), abs=1e-12)
+
+
+def test_particle_to_grid_conserves_mass_and_momentum():
+    rng = np.random.default_rng(2)
+    n = 200
+    x = rng.uniform(0.0, 4.0, size=(n, 3))
+    v = rng.normal(size=(n, 3))
+    mass = rng.uniform(1, 2, n)
+    b = block()
+    nodal = np.zeros((b.n_nodes, mpm.NODAL_COMPONENTS))
+    mpm.particles_to_grid(x, v, mass, np.zeros(n, np.int32), np.zeros(1, np.bool_),
+                          np.zeros(3), 1.0, b.lo, b.strides, nodal)
+    assert nodal[:, 0].sum() == pytest.approx(mass.sum(), rel=1e-13)
+    assert nodal[:, 1:4].sum(axis=0) == pytest.approx(mass @ v, rel=1e-12, abs=1e-12)
+
+
+def test_fixed_and_slip_faces_constrain_nodal_velocity():
+    b = block(2)
+    nodal = np.zeros((b.n_nodes, mpm.NODAL_COMPONENTS))
+    nodal[:, 0] = 1.0
+    nodal[:, 1:4] = [1.0, 2.0, 3.0]
+    bc = np.array([FIXED, 0, 0, SLIP, 0, 0], np.int64)      # x- fixed, y+ slip
+    gvel = np.zeros((b.n_nodes, 3))
+    mpm.nodal_velocities(nodal, b.shape, b.lo, b.strides, np.full(3, 2, np.int64), bc, 0.0, gvel)
+    planes = gvel.reshape(3, 3, 3, 3)
+    assert np.all(planes[0] == 0.0)                            # x = 0 fixed
+    assert np.all(planes[1:, 2, :, 1] == 0.0)                  # y = top: no normal velocity
+    assert np.all(planes[1:, 2, :, 0] == 1.0) and np.all(planes[1:, 2, :, 2] == 3.0)
+    assert np.all(planes[1:, :2] == [1.0, 2.0, 3.0])
+
+
+def test_internal_forces_of_uniform_stress_cancel_inside():
+    """A uniform stress gives zero net nodal force on interior nodes and a total of zero."""
+    d = 0.5
+    axes = [np.arange(d / 2, 4.0, d)] * 3
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    n = len(x)
+    b = block()
+    stress = np.tile([100.0, 50.0, 20.0, 10.0, 5.0, 2.0], (n, 1))
+    force = np.zeros((b.n_nodes, 3))
+    for p in range(n):
+        nodes, w, gx, gy, gz = _shape_of(x, p, np.zeros(3), 1.0, b.lo, b.strides)
+        mpm.scatter_force(p, nodes, w, gx, gy, gz, np.full(n, d ** 3), np.ones(n), stress,
+                          np.zeros(n), np.zeros(3), np.full(n, -1, np.int32), np.zeros(n),
+                          np.zeros((1, 3)), force)
+    assert np.abs(force.sum(axis=0)).max() < 1e-10
+    interior = force.reshape(5, 5, 5, 3)[1:-1, 1:-1, 1:-1]
+    assert np.abs(interior).max() < 1e-10
+
+
+def test_slab_blocks_share_planes_with_neighbours():
+    slabs = Slabs(0, [0, 3, 7, 10])
+    lo, hi = np.array([1, 0, 0]), np.array([8, 4, 4])
+    blocks = [LocalBlock.for_rank(slabs, r, lo, hi) for r in range(3)]
+    assert [b.lo[0] for b in blocks] == [1, 3, 7]
+    assert [b.shape[0] for b in blocks] == [3, 5, 3]
+    assert blocks[0].shared_planes == [(1, 2)]
+    assert blocks[1].shared_planes == [(0, 0), (2, 4)]
+    assert blocks[2].shared_planes == [(1, 0)]
+    assert all(list(b.shape[1:]) == [6, 6] for b in blocks)     # cells 0..4 -> nodes 0..5

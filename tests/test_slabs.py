@@ -1,0 +1,34 @@
+"""Slab decomposition: balanced cuts, owner lookup, axis choice."""
+import numpy as np
+
+from pmpm.comm.slabs import Slabs, balanced_bounds, choose_slabs
+
+
+def test_balanced_bounds_split_equal_counts():
+    counts = np.array([10, 10, 10, 10, 0, 0, 10, 10, 10, 10])
+    bounds = balanced_bounds(counts, 2)
+    assert bounds.tolist()[0] == 0 and bounds[-1] == 10
+    per_rank = [counts[bounds[r]:bounds[r + 1]].sum() for r in range(2)]
+    assert per_rank == [40, 40]
+
+
+def test_every_rank_gets_at_least_one_cell():
+    bounds = balanced_bounds(np.array([100, 0, 0, 0]), 4)
+    assert np.all(np.diff(bounds) >= 1)
+
+
+def test_owner_of_cells():
+    slabs = Slabs(2, [0, 4, 9])
+    assert slabs.owner_of_cells(np.array([0, 3, 4, 8])).tolist() == [0, 0, 1, 1]
+
+
+def test_imbalance_measures_max_over_mean():
+    slabs = Slabs(0, [0, 2, 4])
+    assert slabs.imbalance(np.array([3, 3, 1, 1])) == 6 / 4 - 1
+
+
+def test_choose_slabs_prefers_balanced_axis():
+    hist = [np.array([50, 0, 0, 50]), np.array([25, 25, 25, 25]), np.array([100])]
+    slabs = choose_slabs(hist, 2, "auto")
+    assert slabs.imbalance(hist[slabs.axis]) == 0.0
+    assert choose_slabs(hist, 2, "x").axis == 0
