@@ -24,10 +24,10 @@ def run_case(world, args):
     prepare_output(world, out, args.force, args.restart)
     from .kernels.warmup import warm_up
     from .solver.run import Runner
-    sim, restarted = build_simulation(world, case, args, out)
+    sim, restart = build_simulation(world, case, args, out)
     compile_s = world.max(warm_up())
-    runner = Runner(sim, out, case_text, progress=not args.quiet)
-    runner.run(restarted=restarted, compile_s=compile_s)
+    runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart)
+    runner.run(compile_s=compile_s)
     return os.path.join(out, "summary.json")
 
 
@@ -77,13 +77,13 @@ def build_simulation(world, case, args, out):
     if args.restart:
         from .io import latest_checkpoint, load_checkpoint
         scalars, columns = load_checkpoint(latest_checkpoint(out), world.raw)
-        return Simulation.from_checkpoint(world, case, scalars, columns), True
+        return Simulation.from_checkpoint(world, case, scalars, columns), scalars
     try:
         sim = Simulation.from_case(world, case, os.path.dirname(os.path.abspath(args.case)),
                                    fill_body)
     except SetupError as err:
         raise InputError(err.problems) from None
-    return sim, False
+    return sim, None
 
 
 def _stem(path):

@@ -1,6 +1,9 @@
 """Output layer on one rank (MPI.COMM_SELF): frames, XDMF, history, summary, checkpoints."""
 import json
 import os
+import subprocess
+import sys
+import textwrap
 import xml.etree.ElementTree as ET
 
 import h5py
@@ -130,6 +133,41 @@ def test_columns_of_different_lengths_are_refused(tmp_path):
     with pytest.raises(ValueError, match="differ in length"):
         writer.write_frame(0.0, 0, columns)
     writer.close()
+
+
+def test_frames_without_contract_columns_are_refused(tmp_path):
+    columns = particle_columns(3)
+    del columns["id"]
+    columns["stress"] = columns["stress"][:, :3]
+    writer = ParticleWriter(tmp_path, COMM, CASE, {"body_names": BODIES})
+    with pytest.raises(ValueError, match=r"missing columns \['id'\]; stress has rows of shape"):
+        writer.write_frame(0.0, 0, columns)
+    writer.close()
+
+
+CRASHING_RUN = """
+    import os, numpy as np
+    from mpi4py import MPI
+    from pmpm.io import ParticleWriter
+    def columns(n):
+        z = np.zeros(n)
+        return {"x": np.zeros((n, 3)), "v": np.zeros((n, 3)), "stress": np.zeros((n, 6)),
+                "eps_p": z, "density": z, "mass": z, "body": np.zeros(n, np.int32),
+                "id": np.arange(n)}
+    writer = ParticleWriter(OUT, MPI.COMM_SELF, "case", {"body_names": ["a"]})
+    writer.write_frame(0.0, 0, columns(3))
+    writer.write_frame(1.0, 9, columns(4))
+    os._exit(1)  # dies without closing anything
+"""
+
+
+def test_crashed_run_leaves_readable_frames_and_xdmf(tmp_path):
+    code = textwrap.dedent(CRASHING_RUN).replace("OUT", repr(str(tmp_path)))
+    assert subprocess.run([sys.executable, "-c", code], timeout=60).returncode == 1
+    with h5py.File(tmp_path / "particles.h5", "r") as f:
+        assert f.attrs["frames"] == 2 and f["frames/000001/x"].shape == (4, 3)
+    grids = ET.parse(tmp_path / "particles.xdmf").getroot().findall("./Domain/Grid/Grid")
+    assert [g.find("Time").get("Value") for g in grids] == ["0.0", "1.0"]
 
 
 def test_history_header_rows_and_restart(tmp_path):

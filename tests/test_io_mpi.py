@@ -57,7 +57,8 @@ def test_checkpoint_rows_come_back_across_ranks(mpi_tmp_path):
     comm = MPI.COMM_WORLD
     counts = [3, 5] + [0] * (comm.size - 2)
     parts = [rows(n, 100 * r) for r, n in enumerate(counts)]
-    parts[comm.rank]["F"] = np.full((counts[comm.rank], 9), comm.rank, dtype=np.float32)
+    for r, part in enumerate(parts):
+        part["F"] = np.full((counts[r], 9), r, dtype=np.float32)
     scalars = {"step": 7, "time": 0.25} if comm.rank == 0 else None  # rank 0's are stored
     path = save_checkpoint(mpi_tmp_path, comm, scalars, parts[comm.rank])
     loaded_scalars, loaded = load_checkpoint(path, comm)

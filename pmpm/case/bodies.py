@@ -4,11 +4,9 @@ import math
 import os
 import re
 
-import numpy as np
-
 from .errors import join
 from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, integer,
-                     mapping, number, read_mapping, read_tagged, text, vector)
+                     valid, mapping, number, read_mapping, read_tagged, text, vector)
 from .fill import fill_geometry
 from .mesh import MeshReadError
 from .shapes import AXES, nose_length, reference_point
@@ -54,7 +52,7 @@ def _body_name(value, path, problems):
 def read_geometry(raw, path, problems):
     common = {"rotate": Field(mapping(ROTATE), OMIT)}
     geometry = read_tagged(raw, path, GEOMETRIES, problems, "geometry type", common)
-    if geometry is INVALID or has_invalid(geometry):
+    if geometry is INVALID:
         return geometry
     CHECKS[geometry["type"]](geometry, path, problems)
     if "rotate" in geometry and not has_invalid(geometry):
@@ -62,16 +60,20 @@ def read_geometry(raw, path, problems):
     return geometry
 
 
-def _check_box(g, path, problems):
-    bad = [f"{'xyz'[a]}: {g['min'][a]:g} >= {g['max'][a]:g}" for a in range(3)
-           if g["min"][a] >= g["max"][a]]
+def check_min_below_max(box, path, problems):
+    """Report (and mark INVALID) a box whose min is not below its max on every axis."""
+    if not valid(box, "min", "max"):
+        return False
+    bad = [f"{'xyz'[a]}: {box['min'][a]:g} >= {box['max'][a]:g}" for a in range(3)
+           if box["min"][a] >= box["max"][a]]
     if bad:
         problems.add(path, "min must be < max in every direction (" + "; ".join(bad) + ")")
-        g["max"] = INVALID
+        box["max"] = INVALID
+    return not bad
 
 
 def _check_cylinder(g, path, problems):
-    if g["inner_radius"] >= g["radius"]:
+    if valid(g, "inner_radius", "radius") and g["inner_radius"] >= g["radius"]:
         problems.add(join(path, "inner_radius"), f"must be < radius = {g['radius']:g}")
         g["inner_radius"] = INVALID
 
@@ -80,16 +82,19 @@ def _check_ogive(g, path, problems):
     if ("tip" in g) == ("base" in g):
         problems.add(path, "give exactly one of 'tip' and 'base'")
         g["tip"] = INVALID
-    nose = nose_length(g["diameter"], g["crh"])
-    if nose > g["length"] * (1 + 1e-12):
-        problems.add(join(path, "length"), f"must be >= the nose length diameter * "
-                     f"sqrt(crh - 1/4) = {nose:g}")
-        g["length"] = INVALID
+    if valid(g, "diameter", "crh", "length"):
+        nose = nose_length(g["diameter"], g["crh"])
+        if nose > g["length"] * (1 + 1e-12):
+            problems.add(join(path, "length"), f"must be >= the nose length diameter * "
+                         f"sqrt(crh - 1/4) = {nose:g}")
+            g["length"] = INVALID
+    if not valid(g, "direction"):
+        return
     norm = math.sqrt(sum(c * c for c in g["direction"]))
     g["direction"] = [c / norm for c in g["direction"]]
 
 
-CHECKS = {"box": _check_box, "cylinder": _check_cylinder, "sphere": lambda *a: None,
+CHECKS = {"box": check_min_below_max, "cylinder": _check_cylinder, "sphere": lambda *a: None,
           "ogive": _check_ogive, "mesh": lambda *a: None}
 
 

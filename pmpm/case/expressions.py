@@ -8,6 +8,8 @@ import ast
 import math
 import operator
 
+from .errors import unknown_name
+
 FUNCTIONS = {
     "sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan,
     "radians": math.radians, "degrees": math.degrees, "abs": abs,
@@ -81,8 +83,7 @@ def _lookup(name, names):
         return names[name]
     if name in CONSTANTS:
         return CONSTANTS[name]
-    known = ", ".join(sorted(names)) or "none"
-    raise ExpressionError(f"unknown parameter {name!r}; known: {known}")
+    raise ExpressionError(unknown_name("parameter", name, names))
 
 
 def _call(node, names):

@@ -20,6 +20,9 @@ class _Marker:
     def __repr__(self):
         return self.name
 
+    def __deepcopy__(self, memo):
+        return self
+
 
 INVALID = _Marker("INVALID")      # a value whose problem has been reported
 REQUIRED = _Marker("REQUIRED")    # Field default: the key must be given
@@ -163,7 +166,7 @@ def vector(length=3, nonzero=False):
 
 
 def number_list(min_length=1):
-    """A list of at least ``min_length`` finite floats."""
+    """A list of at least ``min_length`` finite floats (``min_length`` 0: may be empty)."""
     def read(value, path, problems):
         if not isinstance(value, (list, tuple)) or len(value) < min_length:
             problems.add(path, f"expected a list of at least {min_length} numbers, "
@@ -239,3 +242,9 @@ def list_of(read_item, min_length=0, what="item"):
 def defaults_of(fields):
     """The mapping a section takes when it is left out (every field must have a default)."""
     return {key: field.default for key, field in fields.items() if field.default is not OMIT}
+
+
+def valid(mapping, *keys):
+    """True if ``mapping`` is a dict whose ``keys`` are all present and not INVALID."""
+    return (isinstance(mapping, dict)
+            and all(key in mapping and not has_invalid(mapping[key]) for key in keys))

@@ -11,7 +11,7 @@ import os
 import numpy as np
 
 from .errors import CaseError
-from .mesh import MeshReadError, lattice_points_in_tets, read_tets
+from .mesh import CHUNK, MeshReadError, lattice_points_in_tets, read_tets
 from .shapes import TOL, make_shape, reference_point, rotation_matrix
 
 
@@ -47,17 +47,22 @@ def points_inside(geometry, anchor, spacing, case_dir):
                          geometry["scale"], geometry["translate"])
         return lattice_points_in_tets(tets, anchor, spacing)
     shape = make_shape(geometry)
-    points = lattice_in_box(*shape.bounds(), anchor, spacing)
-    return points[shape.contains(points)]
+    kept = [points[shape.contains(points)]
+            for points in lattice_slabs(*shape.bounds(), anchor, spacing)]
+    return np.concatenate(kept + [np.zeros((0, 3))])
 
 
-def lattice_in_box(lo, hi, anchor, spacing):
-    """(n, 3) lattice points anchor + (i + 1/2) spacing within [lo, hi] (x slowest)."""
+def lattice_slabs(lo, hi, anchor, spacing, max_points=CHUNK):
+    """The lattice points anchor + (i + 1/2) spacing within [lo, hi], as (n, 3) arrays of
+    at most about ``max_points`` each (slabs of whole x planes; x slowest, z fastest)."""
     first = np.ceil((lo - anchor) / spacing - 0.5 - TOL).astype(np.int64)
     last = np.floor((hi - anchor) / spacing - 0.5 + TOL).astype(np.int64)
     axes = [anchor[a] + (np.arange(first[a], last[a] + 1) + 0.5) * spacing for a in range(3)]
-    mesh = np.meshgrid(*axes, indexing="ij")
-    return np.stack([m.ravel() for m in mesh], axis=1)
+    per_plane = max(len(axes[1]) * len(axes[2]), 1)
+    step = max(max_points // per_plane, 1)
+    for start in range(0, len(axes[0]), step):
+        mesh = np.meshgrid(axes[0][start:start + step], axes[1], axes[2], indexing="ij")
+        yield np.stack([m.ravel() for m in mesh], axis=1)
 
 
 def rotate_points(points, rotate):

@@ -7,8 +7,8 @@ constants (exactly two of E, nu, K, G), ``eos``, ``bulk_viscosity`` and ``eps_fa
 from pmpm.materials import catalog
 
 from .errors import join
-from .fields import (INVALID, OMIT, REQUIRED, Field, at_least, at_most, between, choice, greater,
-                     has_invalid, mapping, number, read_mapping, read_tagged)
+from .fields import (INVALID, OMIT, REQUIRED, Field, at_least, at_most, between, choice,
+                     greater, mapping, number, read_mapping, read_tagged, valid)
 
 # Physical range of each named parameter (catalog names); names not listed: any number.
 PARAM_CHECKS = {
@@ -45,7 +45,7 @@ def read_material(raw, path, problems):
         return INVALID
     model = catalog.MODELS[model_name["model"]]
     material = read_mapping(raw, path, material_fields(model), problems)
-    if material is not INVALID and not has_invalid(material):
+    if material is not INVALID:
         check_material(material, model, path, problems)
     return material
 
@@ -68,7 +68,8 @@ def material_fields(model):
 
 
 def read_eos(raw, path, problems):
-    variants = {name: _param_fields(params) for name, (_, params) in catalog.EOS_MODELS.items()}
+    variants = {name: _param_fields(params)
+                for name, (_, params) in catalog.EOS_MODELS.items()}
     return read_tagged(raw, path, variants, problems, "eos type")
 
 
@@ -89,7 +90,7 @@ def check_material(material, model, path, problems):
     if model.needs_eos and "eos" not in material:
         problems.add(join(path, "eos"), f"missing (model {model.name!r} takes its pressure "
                      "from an equation of state: " + " or ".join(catalog.EOS_MODELS) + ")")
-    if "T_melt" in material and material["T_melt"] <= material["T_room"]:
+    if valid(material, "T_melt", "T_room") and material["T_melt"] <= material["T_room"]:
         problems.add(join(path, "T_melt"), f"must be > T_room = {material['T_room']:g}")
 
 
@@ -100,6 +101,8 @@ def _check_elastic(material, model, path, problems):
         problems.add(path, f"model {model.name!r} needs exactly two of E, nu, K, G; "
                      f"got {len(given)} ({got})")
         return
+    if not valid(material, *given):
+        return
     pair = " and ".join(f"{k} = {material[k]:g}" for k in given)
     try:
         E, nu, K, G = catalog.elastic_from_any_two({k: material[k] for k in given})
@@ -107,7 +110,6 @@ def _check_elastic(material, model, path, problems):
         problems.add(path, f"{pair} give nu = 0.5 (incompressible); need -1 < nu < 0.5")
         return
     if not (-1 < nu < 0.5 and E > 0 and G > 0):
-        problems.add(path, f"{pair} give nu = {nu:g}, E = {E:g}, G = {G:g}; "
-                     "need -1 < nu < 0.5 and E, G > 0")
-    elif "tangent_modulus" in material and material["tangent_modulus"] >= E:
+        problems.add(path, f"{pair} give nu = {nu:g}; need -1 < nu < 0.5")
+    elif valid(material, "tangent_modulus") and material["tangent_modulus"] >= E:
         problems.add(join(path, "tangent_modulus"), f"must be < E = {E:g}")

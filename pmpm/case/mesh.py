@@ -5,6 +5,8 @@ Tetra cells (``tetra``, ``tetra10``: first four nodes) are used as they are; hex
 split into six tetrahedra around the 0-6 diagonal. Other cells (surface triangles, lines)
 are ignored.
 """
+import contextlib
+import io
 import os
 
 import numpy as np
@@ -22,13 +24,7 @@ class MeshReadError(Exception):
 
 def read_tets(path, scale=1.0, translate=(0.0, 0.0, 0.0)):
     """(m, 4, 3) float64 vertices of the mesh's tetrahedra, scaled then translated."""
-    import meshio
-    if not os.path.isfile(path):
-        raise MeshReadError("no such file")
-    try:
-        mesh = meshio.read(path)
-    except Exception as error:                       # meshio raises many kinds
-        raise MeshReadError(" ".join(str(error).split()) or type(error).__name__) from None
+    mesh = _read_mesh(path)
     points = np.asarray(mesh.points, float)
     if points.ndim != 2 or points.shape[1] != 3:
         raise MeshReadError(f"points are not 3D (shape {points.shape})")
@@ -37,6 +33,21 @@ def read_tets(path, scale=1.0, translate=(0.0, 0.0, 0.0)):
         found = ", ".join(sorted({block.type for block in mesh.cells})) or "none"
         raise MeshReadError(f"no tetra or hexahedron cells (found: {found})")
     return points[tets] * scale + np.asarray(translate, float)
+
+
+def _read_mesh(path):
+    """meshio.read, quietly: meshio prints to stdout/stderr and may call sys.exit."""
+    import meshio
+    if not os.path.isfile(path):
+        raise MeshReadError("no such file")
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            return meshio.read(path)
+    except (Exception, SystemExit) as error:         # meshio raises many kinds
+        text = said.getvalue() if isinstance(error, SystemExit) else str(error)
+        reason = " ".join(text.split()).removeprefix("Error: ")
+        raise MeshReadError(reason or type(error).__name__) from None
 
 
 def _tet_connectivity(cells):

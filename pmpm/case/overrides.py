@@ -15,7 +15,7 @@ _TOKEN = re.compile(r"\[(\d+)\]|([^.\[\]]+)")
 
 def apply_overrides(tree, overrides, problems):
     """Apply each ``"KEY=VALUE"`` string of ``overrides`` to ``tree`` in place."""
-    for item in overrides:
+    for item in [overrides] if isinstance(overrides, str) else overrides:
         key, sep, text = str(item).partition("=")
         key = key.strip()
         if not sep or not _KEY.match(key):

@@ -4,11 +4,11 @@ relate one section to another. ``validate_case`` runs the whole pipeline on a ra
 import copy
 import math
 
-from .bodies import check_bodies_in_grid, check_mesh_files, read_body
+from .bodies import check_bodies_in_grid, check_mesh_files, check_min_below_max, read_body
 from .errors import CaseError, Problems, join, unknown_name
-from .fields import (INVALID, OMIT, Field, at_least, at_most, boolean, choice, defaults_of,
-                     greater, has_invalid, integer, list_of, mapping, number, number_list,
-                     read_mapping, read_tagged, text, vector)
+from .fields import (INVALID, Field, at_least, at_most, boolean, choice, defaults_of,
+                     greater, integer, list_of, mapping, number, number_list,
+                     read_mapping, read_tagged, text, valid, vector)
 from .materials import read_materials
 from .overrides import apply_overrides
 from .params import resolve_params, substitute
@@ -23,7 +23,8 @@ TIME = {"end": Field(number(greater(0))), "cfl": Field(number(greater(0), at_mos
 OUTPUT = {"frames": Field(integer(at_least(1)), 10),
           "history_every": Field(integer(at_least(1)), 10),
           "checkpoint_every": Field(integer(at_least(0)), 0),
-          "progress": Field(boolean(), True)}
+          "progress": Field(boolean(), True),
+          "times": Field(number_list(0), [])}
 DECOMPOSITION = {"axis": Field(choice(("auto", "x", "y", "z"), "axis"), "auto"),
                  "rebalance_threshold": Field(number(greater(0)), 0.2),
                  "check_every": Field(integer(at_least(1)), 50)}
@@ -38,14 +39,14 @@ def read_load(raw, path, problems):
               "region": Field(mapping(REGION)), "value": Field(vector()),
               "time_function": Field(read_time_function, {"type": "constant"})}
     load = read_mapping(raw, path, fields, problems)
-    if load is not INVALID and not has_invalid(load["region"]):
-        _check_min_below_max(load["region"], join(path, "region"), problems)
+    if valid(load, "region"):
+        check_min_below_max(load["region"], join(path, "region"), problems)
     return load
 
 
 def read_time_function(raw, path, problems):
     function = read_tagged(raw, path, TIME_FUNCTIONS, problems, "time function")
-    if function is INVALID or has_invalid(function) or function["type"] != "table":
+    if not valid(function, "t", "f"):
         return function
     t, f = function["t"], function["f"]
     if len(t) != len(f):
@@ -57,26 +58,16 @@ def read_time_function(raw, path, problems):
 
 def read_grid(raw, path, problems):
     grid = read_mapping(raw, path, GRID, problems)
-    if grid is INVALID or has_invalid(grid["min"], grid["max"], grid["cell"]):
-        return grid
-    if _check_min_below_max(grid, path, problems):
+    if check_min_below_max(grid, path, problems) and valid(grid, "cell"):
         grid["max"] = rounded_max(grid["min"], grid["max"], grid["cell"])
     return grid
 
 
 def rounded_max(low, high, cell):
-    """``high`` moved up so that ``high - low`` is a whole number of cells."""
+    """``high`` moved up so that ``high - low`` is a whole number of cells (the result is
+    tidied to 12 significant digits: the solver takes round((max - min) / cell) cells)."""
     cells = [math.ceil((b - a) / cell - 1e-9) for a, b in zip(low, high)]
-    return [a + n * cell for a, n in zip(low, cells)]
-
-
-def _check_min_below_max(box, path, problems):
-    bad = [f"{'xyz'[a]}: {box['min'][a]:g} >= {box['max'][a]:g}" for a in range(3)
-           if box["min"][a] >= box["max"][a]]
-    if bad:
-        problems.add(path, "min must be < max in every direction (" + "; ".join(bad) + ")")
-        box["max"] = INVALID
-    return not bad
+    return [float(f"{a + n * cell:.12g}") for a, n in zip(low, cells)]
 
 
 def _read_materials(raw, path, problems):
@@ -113,10 +104,11 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     case = read_mapping(tree, "", top_level_fields(default_title), problems)
     case["params"] = params
     check_references(case, problems)
-    if check_geometry and not has_invalid(case["grid"]) and case["bodies"] is not INVALID:
-        check_bodies_in_grid(case["bodies"], case["grid"], case_dir, problems)
-    elif case["bodies"] is not INVALID:
-        check_mesh_files(case["bodies"], case_dir, problems)
+    bodies = [] if case["bodies"] is INVALID else case["bodies"]
+    if check_geometry and valid(case["grid"], "min", "max", "cell"):
+        check_bodies_in_grid(bodies, case["grid"], case_dir, problems)
+    else:
+        check_mesh_files(bodies, case_dir, problems)
     problems.raise_if_any()
     return case
 
@@ -129,20 +121,31 @@ def check_references(case, problems):
     body_names = _unique_names(bodies, "bodies", problems)
     _unique_names(loads, "loads", problems)
     for i, body in enumerate(bodies):
-        if materials is not INVALID and _valid(body, "material") \
+        if materials is not INVALID and valid(body, "material") \
                 and body["material"] not in materials:
             problems.add(join(join("bodies", i), "material"),
                          unknown_name("material", body["material"], materials))
+    _check_output_times(case, problems)
+    names_complete = all(valid(body, "name") for body in bodies)
     for i, load in enumerate(loads):
-        if _valid(load, "body") and body_names and load["body"] not in body_names:
+        if valid(load, "body") and names_complete and load["body"] not in body_names:
             problems.add(join(join("loads", i), "body"),
                          unknown_name("body", load["body"], body_names))
+
+
+def _check_output_times(case, problems):
+    if not (valid(case["output"], "times") and valid(case["time"], "end")):
+        return
+    end = case["time"]["end"]
+    for i, t in enumerate(case["output"]["times"]):
+        if not 0 < t <= end:
+            problems.add(f"output.times[{i}]", f"must be in (0, time.end = {end:g}], got {t:g}")
 
 
 def _unique_names(items, section, problems):
     first = {}
     for i, item in enumerate(items):
-        if not _valid(item, "name"):
+        if not valid(item, "name"):
             continue
         name = item["name"]
         if name in first:
@@ -150,7 +153,3 @@ def _unique_names(items, section, problems):
                          f"duplicate name {name!r} (also {section}[{first[name]}])")
         first.setdefault(name, i)
     return first
-
-
-def _valid(item, key):
-    return item is not INVALID and item.get(key, INVALID) is not INVALID

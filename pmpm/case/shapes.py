@@ -79,9 +79,9 @@ class Ogive:
     Notes
     -----
     With diameter D, caliber-radius-head psi (``crh``), ogive radius rho = psi D and
-    R = D/2, the nose is L_n = D sqrt(psi - 1/4) long; at distance t behind the tip's
-    start of nose its radius is y(t) = sqrt(rho^2 - t^2) - (rho - R), so y(0) = R and
-    y(L_n) = 0. ``crh`` = 0.5 gives a hemispherical nose.
+    R = D/2, the nose is L_n = D sqrt(psi - 1/4) long; at distance t from the start of
+    the nose (towards the tip) its radius is y(t) = sqrt(rho^2 - t^2) - (rho - R), so
+    y(0) = R and y(L_n) = 0. ``crh`` = 0.5 gives a hemispherical nose.
     """
 
     def __init__(self, g):
@@ -103,7 +103,8 @@ class Ogive:
         t = np.clip(s - (self.length - self.nose), 0.0, None)
         y = np.sqrt(np.clip(self.rho ** 2 - t ** 2, 0.0, None)) - (self.rho - self.radius)
         tol = TOL * self.length
-        return (s >= -tol) & (s <= self.length + tol) & (r2 <= (np.clip(y, 0, None) + tol) ** 2)
+        inside_radius = r2 <= (np.clip(y, 0.0, None) + tol) ** 2
+        return (s >= -tol) & (s <= self.length + tol) & inside_radius
 
 
 SHAPES = {"box": Box, "cylinder": Cylinder, "sphere": Sphere, "ogive": Ogive}

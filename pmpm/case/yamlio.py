@@ -55,7 +55,8 @@ def read_yaml_file(path):
         with open(path, encoding="utf-8") as stream:
             text = stream.read()
     except OSError as error:
-        raise CaseError([f"{path}: cannot read case file: {error.strerror or error}"]) from None
+        reason = error.strerror or error
+        raise CaseError([f"{path}: cannot read case file: {reason}"]) from None
     return parse_yaml(text, str(path))
 
 

@@ -35,7 +35,7 @@ def sum_shared_planes(world, planes, block):
         block[index] += incoming
 
 
-def migrate(world, destination, columns):
+def migrate(world, destination, columns, check=True):
     """Send every particle to the rank ``destination[p]`` with one Alltoallv per column.
 
     Parameters
@@ -43,6 +43,9 @@ def migrate(world, destination, columns):
     world : World
     destination : int array (n,)
     columns : dict of name -> array whose first axis is the particle
+    check : bool
+        First agree (one reduction) whether any particle moves at all; pass False when
+        the caller already knows some does.
 
     Returns
     -------
@@ -50,8 +53,7 @@ def migrate(world, destination, columns):
         New columns (particles ordered by source rank, stable within a source), or None
         when no particle changed rank anywhere (nothing was sent).
     """
-    leaving = int(np.count_nonzero(destination != world.rank))
-    if world.sum(leaving) == 0:
+    if check and world.sum(int(np.count_nonzero(destination != world.rank))) == 0:
         return None
     order = np.argsort(destination, kind="stable")
     send_counts = np.bincount(destination, minlength=world.size).astype(np.int64)

@@ -75,12 +75,14 @@ class HistoryWriter:
         ----------
         step : int
         time, dt : float
-        energies : sequence of 3 float
-            Kinetic, internal and total energy.
+        energies : sequence of 3 float, or dict
+            Kinetic, internal and total energy (or a dict with those keys).
         body_rows : sequence or dict
             Per body (in ``body_names`` order, or a dict keyed by name) the six values
             x, y, z, vx, vy, vz (mass-weighted centroid and velocity).
         """
+        if isinstance(energies, dict):
+            energies = [energies[key] for key in ENERGY_FIELDS]
         energies = np.asarray(energies, dtype=float).reshape(-1)
         if energies.size != 3:
             raise ValueError(f"energies: expected 3 values (kinetic, internal, total), got {energies.size}")

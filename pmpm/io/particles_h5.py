@@ -23,6 +23,18 @@ from ._files import dumps
 from .xdmf import topology_path, write_xdmf
 
 STRESS_COMPONENTS = "xx,yy,zz,xy,yz,zx"
+#: Columns every frame holds under the run contract, with their shape after the first axis.
+CONTRACT_COLUMNS = {"x": (3,), "v": (3,), "stress": (6,), "eps_p": (), "density": (),
+                    "mass": (), "body": (), "id": ()}
+
+
+def _contract_problems(layout):
+    """Contract columns missing from an agreed layout, or of the wrong shape."""
+    shapes = {spec.name: spec.trailing for spec in layout.specs}
+    missing = [name for name in CONTRACT_COLUMNS if name not in shapes]
+    wrong = [f"{name} has rows of shape {shapes[name]}, expected {shape}"
+             for name, shape in CONTRACT_COLUMNS.items() if name in shapes and shapes[name] != shape]
+    return ([f"missing columns {missing}"] if missing else []) + wrong
 
 
 def _attr_value(value):
@@ -75,9 +87,10 @@ class ParticleWriter:
         self.xdmf_path = os.path.splitext(self.path)[0] + ".xdmf"
         self.comm, self.xdmf = comm, xdmf
         self._frames = []
+        os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
         mode = "w" if restart_frame is None else "r+"
         self._file = h5py.File(self.path, mode, driver="mpio", comm=comm)
-        self._write_header(C.bcast_root(comm, (case_text, dict(attrs))))
+        self._write_header(*C.bcast_root(comm, (case_text, attrs)))
         if restart_frame is not None:
             self._truncate(int(restart_frame))
 
@@ -91,8 +104,7 @@ class ParticleWriter:
         """Per-frame records ``{group, time, n, columns, topology}`` as given to the XDMF."""
         return list(self._frames)
 
-    def _write_header(self, header):
-        case_text, attrs = header
+    def _write_header(self, case_text, attrs):
         f = self._file
         for key, value in attrs.items():
             f.attrs[key] = _attr_value(value)
@@ -144,10 +156,17 @@ class ParticleWriter:
         -------
         int
             Index of the frame written.
+
+        Raises
+        ------
+        ValueError
+            On every rank alike, before anything is written, when a contract column is
+            missing or misshapen or the ranks disagree on the columns.
         """
-        if "x" not in columns:
-            raise ValueError("a frame needs the column 'x' (positions)")
         layout = C.agree_layout(self.comm, columns)
+        problems = _contract_problems(layout)
+        if problems:
+            raise ValueError("frame columns: " + "; ".join(problems))
         time, step = C.bcast_root(self.comm, (float(time), int(step)))
         index = len(self._frames)
         group = self._file["frames"].create_group(f"{index:06d}", track_order=True)

@@ -209,3 +209,32 @@ def cell_keys(x, origin, inv_h, n_cells):
         k = np.int64(np.floor((x[p, 2] - origin[2]) * inv_h))
         keys[p] = (i * n_cells[1] + j) * n_cells[2] + k
     return keys
+
+
+@njit(cache=True)
+def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner, span):
+    """Owner rank of every particle (-1 when it left the grid box) and the range of
+    coarse cells the particles inside occupy: span[:3] = -lowest, span[3:] = highest
+    (so that one MAX reduction over ranks gives both). Returns the number outside."""
+    outside = 0
+    for d in range(3):
+        span[d] = span[3 + d] = -(2.0 ** 62)
+    n_ranks = bounds.shape[0] - 1
+    for p in range(x.shape[0]):
+        c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
+        c1 = np.floor((x[p, 1] - origin[1]) * inv_h)
+        c2 = np.floor((x[p, 2] - origin[2]) * inv_h)
+        if (c0 < 0 or c1 < 0 or c2 < 0 or c0 >= n_cells[0] or c1 >= n_cells[1]
+                or c2 >= n_cells[2]):
+            owner[p] = -1
+            outside += 1
+            continue
+        c = (c0, c1, c2)
+        for d in range(3):
+            span[d] = max(span[d], -c[d])
+            span[3 + d] = max(span[3 + d], c[d])
+        r = 0
+        while r < n_ranks - 1 and c[axis] >= bounds[r + 1]:
+            r += 1
+        owner[p] = r
+    return outside

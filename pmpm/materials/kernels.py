@@ -141,6 +141,41 @@ def plastic_step(p, prm, g, s_trial, eps_p, temp, dt, rho_mid):
 
 
 @njit(cache=True)
+def deviatoric_update(p, code, prm, dt, Lg, f_new, sig_old, p_old, dv, rho_mid, eps_p, temp):
+    """Model-specific part of a step: new deviator, work deviator and strength pressure.
+
+    Returns
+    -------
+    s_new : tuple of 6 float
+        Deviatoric stress at the end of the step.
+    s_work : tuple of 6 float
+        Deviator whose contraction with ``de`` is the deviatoric work of the step.
+    p_new : float
+        End-of-step pressure without an EOS: ``p_old - K dv`` (hypoelastic, fluid) or the
+        Neo-Hookean pressure; replaced by the EOS pressure when the row has one.
+    converged : bool
+        False when the return map failed.
+
+    Notes
+    -----
+    Updates ``eps_p[p]`` and ``temp[p]`` of the plastic models.
+    """
+    d = strain_rate(Lg)
+    g = prm[G]
+    if code == NEO_HOOKEAN:
+        s_new, p_new = neo_hookean_stress(f_new, g, prm[K])
+        return s_new, scale(add(deviator(sig_old), s_new), 0.5), p_new, True
+    if code == FLUID:
+        s_new = scale(deviator(d), 2.0 * prm[VISCOSITY])
+        return s_new, s_new, p_old - prm[K] * dv, True
+    s_rot, s_new = hypoelastic_trial(sig_old, spin(Lg), scale(d, dt), g, dt)
+    converged = True
+    if code == J2_PLASTIC or code == JOHNSON_COOK:
+        s_new, converged = plastic_step(p, prm, g, s_new, eps_p, temp, dt, rho_mid)
+    return s_new, scale(add(s_rot, s_new), 0.5), p_old - prm[K] * dv, converged
+
+
+@njit(cache=True)
 def energy_known_pressure(e_old, work_dev, p_old, p_new, q, dv, rho_mid):
     """Specific internal energy after a step whose end pressure is known.
 
@@ -259,28 +294,14 @@ def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q
     if not (rho_new > 0.0 and math.isfinite(rho_new)):
         return -1.0
     rho_mid = 0.5 * (rho_old + rho_new)
-    de = scale(d, dt)
     f_new = advance_deformation_gradient(F, p, Lg, dt)
     sig_old = load_row6(stress, p)
     p_old = -trace(sig_old) / 3.0
-    g = prm[G]
-    converged = True
-    if code == NEO_HOOKEAN:
-        s_new, p_new = neo_hookean_stress(f_new, g, prm[K])
-        s_work = scale(add(deviator(sig_old), s_new), 0.5)
-    elif code == FLUID:
-        s_new = scale(deviator(d), 2.0 * prm[VISCOSITY])
-        s_work = s_new
-        p_new = p_old - prm[K] * dv
-    else:
-        s_rot, s_new = hypoelastic_trial(sig_old, spin(Lg), de, g, dt)
-        if code == J2_PLASTIC or code == JOHNSON_COOK:
-            s_new, converged = plastic_step(p, prm, g, s_new, eps_p, temp, dt, rho_mid)
-        s_work = scale(add(s_rot, s_new), 0.5)
-        p_new = p_old - prm[K] * dv
+    s_new, s_work, p_new, converged = deviatoric_update(p, code, prm, dt, Lg, f_new, sig_old,
+                                                        p_old, dv, rho_mid, eps_p, temp)
     q_new = bulk_viscosity(rho_new, h, wave_speed(code, prm, rho_new, p_old), trace(d),
                            prm[Q_LINEAR], prm[Q_QUADRATIC])
-    work_dev = double_dot(s_work, de)
+    work_dev = double_dot(s_work, scale(d, dt))
     if prm[EOS_TYPE] != EOS_NONE:
         a, b = eos_pressure_coefficients(prm, rho_new)
         p_new, e_new = pressure_and_energy(a, b, e_int[p], work_dev, p_old, q_new, dv, rho_mid)

@@ -15,43 +15,56 @@ from .layout import A, B, C, EPS_DOT0, M, N, T_MELT, T_ROOM
 from .tensors import scale, von_mises
 
 MAX_NEWTON = 50
-NEWTON_RTOL = 1e-12
+NEWTON_RTOL = 1e-11
 
 
 @njit(cache=True)
 def hardening(a, b, n, eps):
-    """Strain-hardening term ``a + b eps^n`` and its slope with respect to ``eps``.
+    """Strain-hardening term ``a + b eps^n``."""
+    if eps <= 0.0:
+        return a
+    if n == 1.0:
+        return a + b * eps
+    return a + b * eps ** n
+
+
+@njit(cache=True)
+def hardening_slope_in_t(b, n, k, dlam, eps):
+    """Slope of ``b eps^n`` with respect to ``t``, where ``dlam = t^k`` and ``eps`` is the
+    plastic strain after the increment.
 
     Notes
     -----
-    At ``eps = 0`` the slope is infinite for ``0 < n < 1`` (and ``b != 0``); the return
-    map brackets its root, so it never relies on that slope.
+    With ``k = 1/n`` (n < 1) the slope is ``b (dlam/eps)^(1-n)``, bounded by ``b`` even at
+    ``eps = 0`` where ``d(eps^n)/d eps`` is infinite; that bound is the reason for the
+    change of variable. With ``k = 1`` it is the ordinary ``n b eps^(n-1)``.
     """
-    if eps <= 0.0:
-        if b == 0.0 or n > 1.0:
-            return a, 0.0
-        if n == 1.0:
-            return a, b
-        return a, math.inf
+    if b == 0.0:
+        return 0.0
+    if k != 1.0:
+        if eps <= 0.0:
+            return b
+        return b * (dlam / eps) ** (1.0 - n)
     if n == 1.0:
-        return a + b * eps, b
-    en = eps ** n
-    return a + b * en, n * b * en / eps
+        return b
+    if eps <= 0.0:
+        return 0.0
+    return n * b * eps ** (n - 1.0)
 
 
 @njit(cache=True)
 def rate_factor(c, eps_dot0, dlam, dt):
-    """Johnson-Cook rate factor ``1 + c ln max(eps_dot_p/eps_dot0, 1)`` and its slope in dlam.
+    """Johnson-Cook rate factor ``1 + c ln max(eps_dot_p/eps_dot0, 1)``.
 
     The plastic strain rate is ``eps_dot_p = dlam / dt``, the plastic strain increment of
     the step over the step (seed 004 Sec. 4.2), so the factor is implicit in ``dlam``.
     """
     if c == 0.0 or eps_dot0 <= 0.0 or dt <= 0.0:
-        return 1.0, 0.0
+        return 1.0
     ratio = dlam / (dt * eps_dot0)
     if ratio <= 1.0:
-        return 1.0, 0.0
-    return 1.0 + c * math.log(ratio), c / dlam
+        return 1.0
+    return 1.0 + c * math.log(ratio)
 
 
 @njit(cache=True)
@@ -69,13 +82,23 @@ def thermal_factor(m, temp, t_room, t_melt):
 
 @njit(cache=True)
 def flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta):
-    """Flow stress after a plastic increment ``dlam`` and its slope ``d sigma_y / d dlam``.
+    """Flow stress after a plastic increment ``dlam`` at the rate ``dlam/dt``.
 
     ``theta`` is the thermal factor, held at its start-of-step value.
     """
-    hard, dhard = hardening(a, b, n, eps_p + dlam)
-    rate, drate = rate_factor(c, eps_dot0, dlam, dt)
-    return theta * hard * rate, theta * (dhard * rate + hard * drate)
+    return (theta * hardening(a, b, n, eps_p + dlam)
+            * rate_factor(c, eps_dot0, dlam, dt))
+
+
+@njit(cache=True)
+def flow_stress_slope_in_t(t, k, eps_p, dt, a, b, n, c, eps_dot0, theta):
+    """``d sigma_y / dt`` for ``dlam = t^k`` (see :func:`plastic_multiplier`)."""
+    dlam = t ** k
+    eps = eps_p + dlam
+    rate = rate_factor(c, eps_dot0, dlam, dt)
+    drate = c * k / t if rate > 1.0 else 0.0          # d(c ln(t^k / (dt eps_dot0)))/dt
+    return theta * (hardening_slope_in_t(b, n, k, dlam, eps) * rate
+                    + hardening(a, b, n, eps) * drate)
 
 
 @njit(cache=True)
@@ -108,36 +131,51 @@ def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     -----
     Linear hardening without rate term (``n = 1`` or ``b = 0``, ``c = 0``) has the closed
     form ``dlam = (q_trial - sigma_y0)/(3g + theta b)``. Otherwise a safeguarded Newton
-    iteration is used. ``sigma_y`` does not decrease with ``dlam`` (b, c >= 0), so the root
-    lies in ``[0, (q_trial - sigma_y0)/(3g)]`` (the perfectly plastic increment, where
-    ``r <= 0``). Newton starts at that upper bound; each iterate narrows the bracket by the
-    sign of ``r``, and a step that leaves the bracket (for instance the infinite slope at
-    ``eps_p = 0`` with ``n < 1``) is replaced by bisection.
+    iteration solves for ``t`` with ``dlam = t^k``, ``k = 1/n`` when ``n < 1`` (else 1):
+    in ``t`` the hardening slope is bounded, whereas ``d(eps^n)/d eps`` is infinite at
+    ``eps = 0``, which would stall Newton on the first plastic step of a virgin particle.
+    ``sigma_y`` does not decrease with ``dlam`` (b, c >= 0), so the root lies in
+    ``[0, (q_trial - sigma_y0)/(3g)]`` (the perfectly plastic increment, where ``r <= 0``).
+    Newton starts at that upper bound; each iterate narrows the bracket by the sign of
+    ``r``, and a step that leaves the bracket, or that is not half the one before it
+    (slow progress, e.g. at the kink of the rate term), is replaced by bisection. Converged when
+    ``|r| <= NEWTON_RTOL q_trial`` or when the bracket has shrunk to round-off.
     """
-    sy0, _ = flow_stress(0.0, eps_p, dt, a, b, n, c, eps_dot0, theta)
-    if q_trial <= sy0:
+    tol = NEWTON_RTOL * q_trial
+    sy0 = flow_stress(0.0, eps_p, dt, a, b, n, c, eps_dot0, theta)
+    if q_trial - sy0 <= tol:
         return 0.0, sy0, True
     if c == 0.0 and (n == 1.0 or b == 0.0):
         slope = theta * b if n == 1.0 else 0.0
         dlam = (q_trial - sy0) / (3.0 * g + slope)
         return dlam, sy0 + slope * dlam, dlam >= 0.0
+    k = 1.0 / n if 0.0 < n < 1.0 else 1.0
     lo = 0.0
-    hi = (q_trial - sy0) / (3.0 * g)
-    dlam = hi
-    tol = NEWTON_RTOL * q_trial
+    hi = ((q_trial - sy0) / (3.0 * g)) ** (1.0 / k)
+    t = hi
+    step = step_before = hi
     for _ in range(MAX_NEWTON):
-        sy, dsy = flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta)
+        dlam = t ** k
+        sy = flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta)
         r = q_trial - 3.0 * g * dlam - sy
-        if abs(r) <= tol or hi - lo <= 4e-16 * hi:
+        if abs(r) <= tol:
             return dlam, sy, True
         if r > 0.0:
-            lo = dlam
+            lo = t
         else:
-            hi = dlam
-        step = r / (3.0 * g + dsy) if math.isfinite(dsy) else 0.0
-        trial = dlam + step
-        dlam = trial if lo < trial < hi else 0.5 * (lo + hi)
-    return dlam, sy, False
+            hi = t
+        if hi - lo <= 4e-16 * hi:                       # root pinned to round-off
+            return dlam, sy, True
+        slope = (3.0 * g * k * t ** (k - 1.0)
+                 + flow_stress_slope_in_t(t, k, eps_p, dt, a, b, n, c, eps_dot0, theta))
+        newton = r / slope if slope > 0.0 else hi - lo
+        step_before, step = step, newton
+        if not lo < t + newton < hi or abs(2.0 * newton) > abs(step_before):
+            step = 0.5 * (hi - lo)                      # too slow or outside: bisect
+            t = lo + step
+        else:
+            t += newton
+    return t ** k, flow_stress(t ** k, eps_p, dt, a, b, n, c, eps_dot0, theta), False
 
 
 @njit(cache=True)

@@ -27,7 +27,7 @@ class Schedule:
 class Runner:
     """Drives a :class:`Simulation` to ``time.end`` and writes the run contract's files."""
 
-    def __init__(self, sim, out_dir, case_text, progress=True):
+    def __init__(self, sim, out_dir, case_text, progress=True, restart=None):
         self.sim, self.world, self.out = sim, sim.world, out_dir
         self.case = sim.case
         self.end = float(self.case["time"]["end"])
@@ -41,12 +41,17 @@ class Runner:
         self.step_wall = 0.0
         self.frame_index = 0
         self.n_initial = self.world.sum(sim.particles.n)
+        self.restart = restart
+        if restart:
+            self.particle_steps = restart["particle_steps"]
+            self.n_initial = restart["n_initial"]
+            sim.stepper.fastest = restart["fastest"]
 
     # -- run ---------------------------------------------------------------------
-    def run(self, restarted=False, compile_s=0.0):
+    def run(self, compile_s=0.0):
         self.compile_s = compile_s
-        self.open_outputs(restarted)
-        if not restarted:
+        self.open_outputs()
+        if not self.restart:
             self.write_frame()
             self.write_history_row(0.0)
         started = clock.perf_counter()
@@ -97,14 +102,16 @@ class Runner:
         return self.particle_steps / self.step_wall if self.step_wall > 0 else 0.0
 
     # -- outputs -----------------------------------------------------------------
-    def open_outputs(self, restarted):
+    def open_outputs(self):
         names = self.sim.bodies.names
-        self.writer = io.ParticleWriter(os.path.join(self.out, "particles.h5"), self.world.raw,
-                                        self.case_text, {"body_names": names},
-                                        append=restarted)
+        r = self.restart
+        self.writer = io.ParticleWriter(
+            os.path.join(self.out, "particles.h5"), self.world.raw, self.case_text,
+            {"body_names": names}, restart_frame=r["frame_index"] if r else None)
         self.frame_index = self.writer.n_frames
-        self.history = io.HistoryWriter(os.path.join(self.out, "history.csv"), names) \
-            if self.world.is_root else None
+        self.history = io.HistoryWriter(
+            os.path.join(self.out, "history.csv"), names,
+            restart_step=r["step"] if r else None) if self.world.is_root else None
 
     def write_frame(self):
         p = self.sim.particles
@@ -129,7 +136,8 @@ class Runner:
         sim = self.sim
         scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
                    "slab_axis": sim.slabs.axis, "slab_bounds": sim.slabs.bounds.tolist(),
-                   "particle_steps": self.particle_steps}
+                   "particle_steps": self.particle_steps, "n_initial": self.n_initial,
+                   "frame_index": self.frame_index, "fastest": sim.stepper.fastest}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
 
     def finish(self, dt):

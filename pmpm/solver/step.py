@@ -15,13 +15,17 @@ class Workspace:
         self._buffers = {}
 
     def zeros(self, name, rows, width):
+        view = self.empty(name, rows, width)
+        view.fill(0.0)
+        return view
+
+    def empty(self, name, rows, width):
+        """Uninitialised rows, for arrays a kernel overwrites entirely."""
         buf = self._buffers.get(name)
         if buf is None or buf.shape[0] < rows:
             buf = np.empty((max(rows, 1024) * 5 // 4, width))
             self._buffers[name] = buf
-        view = buf[:rows]
-        view.fill(0.0)
-        return view
+        return buf[:rows]
 
 
 class Stepper:
@@ -72,7 +76,7 @@ class Stepper:
 
     def nodal_velocities_with_boundaries(self):
         b = self.block
-        self.gvel = self.work.zeros("gvel", b.n_nodes, 3)
+        self.gvel = self.work.empty("gvel", b.n_nodes, 3)
         mpm.nodal_velocities(self.nodal, b.shape, b.lo, b.strides, self.grid.n_cells,
                              self.grid.boundary, self.m_tiny, self.gvel)
 
@@ -90,7 +94,7 @@ class Stepper:
 
     def integrate_nodal_momentum(self, dt):
         b = self.block
-        self.gnew = self.work.zeros("gnew", b.n_nodes, 6)
+        self.gnew = self.work.empty("gnew", b.n_nodes, 6)
         mpm.integrate_nodes(self.nodal, self.force, self.gvel, dt, b.shape, b.lo, b.strides,
                             self.grid.n_cells, self.grid.boundary, self.m_tiny, self.gnew)
 
@@ -101,20 +105,28 @@ class Stepper:
         self.raise_if_any(bad, "position is not finite")
 
     def migrate_and_check(self):
-        """Drop particles that left the grid box, send the rest to their slab owners,
-        and agree on the next step's cell range and wave speed in one reduction."""
-        self.remove_escaped()
-        self.send_to_owners(self.slabs)
-        self.cell_range = self.global_cell_range()
+        """Drop particles that left the grid box, send the rest to their slab owners, and
+        agree on the next step's cell range and wave speed: one MAX reduction, plus an
+        Alltoallv only when some particle changes rank."""
+        p, g, slabs = self.particles, self.grid, self.slabs
+        owner = np.empty(p.n, np.int64)
+        local = np.empty(9)
+        outside = mpm.classify_particles(p.x, g.origin, 1.0 / g.h, g.n_cells, slabs.axis,
+                                         slabs.bounds, owner, local[:6])
+        local[6] = self.fastest
+        local[7] = float(outside)
+        local[8] = float(np.count_nonzero((owner != self.world.rank) & (owner >= 0)))
+        glob = self.world.max(local)
+        self.fastest = glob[6]
+        self.cell_range = _cell_range(glob[:6])
+        if glob[7] > 0:
+            self.lost += self.world.sum(outside)
+            p.take(owner >= 0)
+            owner = owner[owner >= 0]
+        if glob[8] > 0:
+            p.set_columns(migrate(self.world, owner, p.columns(), check=False))
 
     # -- helpers ----------------------------------------------------------------
-    def remove_escaped(self):
-        inside = self.grid.inside(self.particles.x)
-        escaped = int(np.count_nonzero(~inside))
-        if escaped:
-            self.particles.take(inside)
-        self.lost += self.world.sum(escaped)
-
     def send_to_owners(self, slabs):
         p = self.particles
         cells = self.grid.cells_of(p.x)[:, slabs.axis] if p.n else np.zeros(0, np.int64)
@@ -124,21 +136,13 @@ class Stepper:
             p.set_columns(moved)
 
     def global_cell_range(self):
-        """Lowest and highest coarse cell holding a particle on any rank, and the
-        fastest wave on any rank, in one MAX reduction."""
+        """Lowest and highest coarse cell holding a particle on any rank."""
         p = self.particles
-        local = np.full(7, -np.iinfo(np.int64).max // 2, dtype=np.float64)
+        local = np.full(6, -(2.0 ** 62))
         if p.n:
             cells = self.grid.cells_of(p.x)
-            local[:3], local[3:6] = -cells.min(axis=0), cells.max(axis=0)
-        local[6] = self.fastest
-        glob = self.world.max(local)
-        self.fastest = glob[6]
-        lo = (-glob[:3]).astype(np.int64)
-        hi = glob[3:6].astype(np.int64)
-        if np.any(hi < lo):          # no particle anywhere: an empty block
-            lo, hi = np.zeros(3, np.int64), -np.ones(3, np.int64)
-        return lo, hi
+            local[:3], local[3:] = -cells.min(axis=0), cells.max(axis=0)
+        return _cell_range(self.world.max(local))
 
     def raise_if_any(self, bad, what):
         """Collective: if any rank has a bad particle, every rank raises the same error."""
@@ -176,3 +180,11 @@ class Stepper:
         p = self.particles
         keys = mpm.cell_keys(p.x, self.grid.origin, 1.0 / self.grid.h, self.grid.n_cells)
         p.take(np.argsort(keys, kind="stable"))
+
+
+def _cell_range(span):
+    """(lowest, highest) cell from a reduced span (-lowest, highest); empty if none."""
+    lo, hi = (-span[:3]).astype(np.int64), span[3:6].astype(np.int64)
+    if np.any(hi < lo):
+        return np.zeros(3, np.int64), -np.ones(3, np.int64)
+    return lo, hi

@@ -1,0 +1,28 @@
+"""Read frames of a run's particles.h5 (serially), sorted by particle id."""
+import json
+import os
+
+import h5py
+import numpy as np
+
+
+def frame_times(out_dir):
+    with h5py.File(os.path.join(out_dir, "particles.h5"), "r") as f:
+        return [float(f["frames"][k].attrs["time"]) for k in sorted(f["frames"])]
+
+
+def read_frame(out_dir, index=-1):
+    """Columns of frame ``index`` (default the last) as a dict, rows sorted by id."""
+    with h5py.File(os.path.join(out_dir, "particles.h5"), "r") as f:
+        names = sorted(f["frames"])
+        group = f["frames"][names[index]]
+        data = {key: group[key][()] for key in group}
+        data["time"] = float(group.attrs["time"])
+    order = np.argsort(data["id"], kind="stable")
+    return {k: (v[order] if isinstance(v, np.ndarray) and v.ndim and len(v) == len(order)
+                else v) for k, v in data.items()}
+
+
+def read_summary(out_dir):
+    with open(os.path.join(out_dir, "summary.json"), encoding="utf-8") as f:
+        return json.load(f)
