@@ -128,7 +128,7 @@ def test_set_overrides_params_lists_and_new_keys(tmp_path):
     assert case["bodies"][0]["velocity"] == [0.0, 0.0, -100.0]
     assert case["time"]["dt_max"] == 1e-5
     assert case["materials"]["copper"]["E"] == 110000.0
-    assert case["grid"]["boundary"]["x-"] == "slip"
+    assert case["grid"]["boundary"]["x-"] == "symmetry"
 
 
 def test_set_override_errors(tmp_path):
@@ -462,3 +462,16 @@ def test_fill_is_fast_for_a_million_particles(tmp_path):
     positions, _ = fill_body(case["bodies"][0], case["grid"], tmp_path)
     assert len(positions) == 1341408
     assert time.perf_counter() - start < 5.0
+
+
+def test_symmetry_planes_cut_the_body_into_a_quarter_model():
+    from pmpm.case import fill_body
+    grid = {"min": [-5.0, 0.0, 0.0], "max": [5.0, 5.0, 5.0], "cell": 0.5,
+            "boundary": {"y-": "symmetry", "z-": "symmetry"}}
+    body = {"name": "ball", "particles_per_cell": 2,
+            "geometry": {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 3.0}}
+    quarter, _ = fill_body(body, grid)
+    assert quarter[:, 1:].min() > 0.0
+    grid_full = dict(grid, min=[-5.0, -5.0, -5.0], boundary={})
+    whole, _ = fill_body(body, grid_full)
+    assert len(whole) == 4 * len(quarter)

@@ -37,7 +37,23 @@ def fill_geometry(geometry, grid, particles_per_cell, case_dir="."):
     points = points_inside(geometry, np.asarray(anchor, float), spacing, case_dir)
     if rotate:
         points = rotate_points(points, rotate)
+    points = clip_at_symmetry_planes(points, grid)
     return points, np.full(len(points), spacing ** 3)
+
+
+def clip_at_symmetry_planes(points, grid):
+    """Drop the particles beyond a face declared ``symmetry``: a quarter or half model is
+    the full body cut by its symmetry planes (which act as slip faces)."""
+    keep = np.ones(len(points), dtype=bool)
+    for face, kind in grid.get("boundary", {}).items():
+        if kind != "symmetry":
+            continue
+        axis = "xyz".index(face[0])
+        if face[1] == "-":
+            keep &= points[:, axis] >= grid["min"][axis]
+        else:
+            keep &= points[:, axis] < grid["max"][axis]
+    return points[keep]
 
 
 def points_inside(geometry, anchor, spacing, case_dir):

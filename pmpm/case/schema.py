@@ -14,8 +14,8 @@ from .overrides import apply_overrides
 from .params import resolve_params, substitute
 
 FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
-BOUNDARY = {face: Field(choice(("fixed", "slip", "free"), "boundary condition",
-                               {"symmetry": "slip"}), "free") for face in FACES}
+BOUNDARY = {face: Field(choice(("fixed", "slip", "free", "symmetry"), "boundary condition"),
+                        "free") for face in FACES}
 GRID = {"min": Field(vector()), "max": Field(vector()), "cell": Field(number(greater(0))),
         "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY))}
 TIME = {"end": Field(number(greater(0))), "cfl": Field(number(greater(0), at_most(1)), 0.5),

@@ -1,0 +1,25 @@
+"""Run pmpm's command line from tests, on 1 or 2 ranks."""
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUNS = os.path.join(ROOT, "runs")
+CASES = os.path.join(ROOT, "tests", "cases")
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+
+
+def run_pmpm(case, out, ranks=1, sets=(), timeout=900, check=True):
+    """Run ``case`` into ``out`` (overwriting); returns the CompletedProcess."""
+    cmd = [sys.executable, "-m", "pmpm", case, "--out", str(out), "--force", "--quiet"]
+    for item in sets:
+        cmd += ["--set", item]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe"] + cmd
+    env = dict(os.environ, **MPI_ENV)
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env,
+                          cwd=ROOT)
+    if check and done.returncode != 0:
+        raise AssertionError(f"{' '.join(cmd)} failed ({done.returncode}):\n{done.stderr}")
+    return done
