@@ -25,7 +25,7 @@ if [ ! -x .venv/bin/python ]; then
 fi
 PY=.venv/bin/python
 $PY -m pip install -q --upgrade pip "setuptools>=77" wheel
-$PY -m pip install -q numpy numba mpi4py meshio pyyaml pytest pytest-mpi
+$PY -m pip install -q numpy numba mpi4py meshio pyyaml pytest pytest-mpi matplotlib
 
 if ! $PY -c "import h5py, sys; sys.exit(0 if h5py.get_config().mpi else 1)" 2>/dev/null; then
     echo "setup: building h5py against parallel HDF5 (about 5 minutes the first time; pip caches the wheel)"

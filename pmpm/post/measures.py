@@ -2,22 +2,18 @@
 import numpy as np
 
 
-def taylor_length_and_diameter(x, spacing, axis=2, wall=0.0, foot_layer=None):
-    """Final length L and foot diameter D of a Taylor bar standing on a wall.
+def taylor_length_and_diameter(x, axis=2, wall=0.0):
+    """Final length L and foot diameter D of a Taylor bar standing on a wall, measured
+    from particle centres: L is the highest centre's distance from the wall, D twice the
+    largest distance of a centre from the bar's axis (through the mean of the centres).
 
-    L is the top particle's distance from the wall plus half a particle spacing (the
-    particle stands for a cube of that edge); D is twice the largest radial distance of a
-    particle from the bar axis, plus one spacing (half a particle on either side). Both
-    are measured from particle centres, so they carry an uncertainty of about half a
-    spacing.
+    A particle stands for a cube of about one spacing, so the body's surface lies up to
+    half a spacing beyond the outermost centres: that is the measurement uncertainty.
     """
     radial = [a for a in range(3) if a != axis]
-    top = x[:, axis].max() - wall
-    centre = np.average(x[:, radial], axis=0)
+    centre = np.mean(x[:, radial], axis=0)
     r = np.linalg.norm(x[:, radial] - centre, axis=1)
-    if foot_layer is not None:
-        r = r[x[:, axis] - wall <= foot_layer]
-    return top + 0.5 * spacing, 2.0 * r.max() + spacing
+    return float(x[:, axis].max() - wall), float(2.0 * r.max())
 
 
 def wave_bar_stress(x, t, length, c, load_stress):

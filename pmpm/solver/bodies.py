@@ -27,17 +27,28 @@ class BodyTable:
         return max(speed, prm[layout.EOS_C0])
 
 
-def fill_particles(case, table, fill_body, case_dir, grid_case):
-    """All particles of all bodies, identical on every rank (ids = fill order)."""
-    parts = [_body_particles(i, body, case, table, fill_body, case_dir, grid_case)
-             for i, body in enumerate(case["bodies"])]
-    columns = {name: np.concatenate([p[name] for p in parts]) for name in COLUMNS}
-    columns["id"] = np.arange(len(columns["mass"]), dtype=np.int64)
-    return Particles(columns)
+def fill_positions(case, fill_body, case_dir):
+    """Positions and volumes of every body's particles (the same on every rank), as a
+    list of (positions, volumes) per body. Only these few bytes per particle are held for
+    all particles; the full columns are built for a rank's own particles only."""
+    return [fill_body(body, case["grid"], case_dir) for body in case["bodies"]]
 
 
-def _body_particles(index, body, case, table, fill_body, case_dir, grid_case):
-    positions, volumes = fill_body(body, grid_case, case_dir)
+def build_particles(case, table, filled, keep):
+    """The particles of every body selected by ``keep`` (bool mask over the concatenated
+    fill); global ids are the fill order, so they agree on every rank count."""
+    parts, offset = [], 0
+    for index, (positions, volumes) in enumerate(filled):
+        mine = keep[offset:offset + len(volumes)]
+        cols = _body_columns(index, case["bodies"][index], table, positions[mine],
+                             volumes[mine])
+        cols["id"][:] = offset + np.flatnonzero(mine)
+        parts.append(cols)
+        offset += len(volumes)
+    return Particles({name: np.concatenate([p[name] for p in parts]) for name in COLUMNS})
+
+
+def _body_columns(index, body, table, positions, volumes):
     n = len(volumes)
     cols = {name: empty_column(name, n) for name in COLUMNS}
     prm = table.params[index]

@@ -4,7 +4,7 @@ import numpy as np
 from ..comm.slabs import Slabs, choose_slabs
 from ..grid import CoarseGrid
 from ..particles import Particles
-from .bodies import BodyTable, assign_loads, fill_particles
+from .bodies import BodyTable, assign_loads, build_particles, fill_positions
 from .errors import SetupError
 from .step import Stepper
 
@@ -33,14 +33,16 @@ class Simulation:
     def from_case(cls, world, case, case_dir, fill_body):
         grid = CoarseGrid.from_case(case["grid"])
         bodies = BodyTable(case)
-        everything = fill_particles(case, bodies, fill_body, case_dir, case["grid"])
-        problems = assign_loads(case, everything, lambda n: n)
+        filled = fill_positions(case, fill_body, case_dir)
+        x = np.concatenate([positions for positions, _ in filled])
+        slabs = decompose(world, grid, x, case)
+        mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
+        del x
+        particles = build_particles(case, bodies, filled, mine)
+        problems = assign_loads(case, particles, world.sum)
         if problems:
             raise SetupError(problems)
-        slabs = decompose(world, grid, everything.x, case)
-        mine = slabs.owner_of_cells(grid.cells_of(everything.x)[:, slabs.axis]) == world.rank
-        everything.take(mine)
-        return cls(world, case, grid, slabs, everything, bodies)
+        return cls(world, case, grid, slabs, particles, bodies)
 
     @classmethod
     def from_checkpoint(cls, world, case, scalars, columns):

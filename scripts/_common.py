@@ -1,0 +1,33 @@
+"""Shared helpers of the validation and benchmark scripts: run pmpm, read results."""
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PYTHON = os.path.join(ROOT, ".venv", "bin", "python")
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+sys.path.insert(0, ROOT)
+
+
+def run_case(case, out, ranks=1, sets=(), quiet=True):
+    """Run a case with the command line (overwriting ``out``); returns summary.json."""
+    cmd = [PYTHON if os.path.exists(PYTHON) else sys.executable, "-m", "pmpm",
+           os.path.join(ROOT, case), "--out", out, "--force"]
+    cmd += ["--quiet"] if quiet else []
+    for item in sets:
+        cmd += ["--set", item]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe"] + cmd
+    print("+", " ".join(cmd), flush=True)
+    subprocess.run(cmd, check=True, env=ENV, cwd=ROOT)
+    with open(os.path.join(out, "summary.json"), encoding="utf-8") as f:
+        return json.load(f)
+
+
+def save_json(path, data):
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(data, f, indent=2)
+    print("wrote", path)

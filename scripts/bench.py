@@ -1,0 +1,74 @@
+"""Speed, scaling and memory: particle-steps per second per rank on 1 and 2 ranks on
+identical work, parallel efficiency, and peak memory per particle, for
+
+- a 1,000,000-particle Johnson-Cook block impact (runs/bench_block.yaml), and
+- the Taylor bar at 0.38 mm cells (169,376 particles; first 0.01 ms).
+
+Writes results/bench/bench.{json,md}. The machine this was written for has 2 cores:
+more ranks than cores need --oversubscribe (passed always) and make no sense to time.
+
+Usage: .venv/bin/python scripts/bench.py [--ranks 1 2] [--small]
+"""
+import argparse
+import os
+
+from _common import ROOT, run_case, save_json
+
+CASES = {
+    "block_1M": ("runs/bench_block.yaml", []),
+    "taylor_0.38": ("runs/taylor_bar.yaml", ["params.cell=0.38", "time.end=0.01",
+                                             "output.frames=1"]),
+}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--small", action="store_true", help="125k-particle block (quick)")
+    parser.add_argument("--out", default=os.path.join(ROOT, "results", "bench"))
+    args = parser.parse_args()
+    results = []
+    for name, (case, sets) in CASES.items():
+        sets = list(sets) + (["params.edge=25"] if args.small and "block" in name else [])
+        for ranks in args.ranks:
+            out = os.path.join(args.out, f"{name}_{ranks}")
+            results.append(measure(name, case, sets, ranks, out))
+    add_efficiency(results)
+    save_json(os.path.join(args.out, "bench.json"), results)
+    write_table(os.path.join(args.out, "bench.md"), results)
+
+
+def measure(name, case, sets, ranks, out):
+    s = run_case(case, out, ranks, sets)
+    memory = s.get("memory", {})
+    return {"case": name, "ranks": ranks, "particles": s["n_particles"]["initial"],
+            "steps": s["n_steps"], "step_wall_s": s["step_wall_s"], "compile_s": s["compile_s"],
+            "per_rank": s["particle_steps_per_s_per_rank"],
+            "bytes_per_particle": memory.get("bytes_per_particle"),
+            "peak_rss_mb": memory.get("peak_rss_mb_total")}
+
+
+def add_efficiency(results):
+    for r in results:
+        base = next((b for b in results if b["case"] == r["case"] and b["ranks"] == 1), None)
+        r["efficiency"] = r["per_rank"] / base["per_rank"] if base else None
+
+
+def write_table(path, results):
+    lines = ["| case | ranks | particles | steps | M particle-steps/s per rank | efficiency | "
+             "bytes/particle | peak RSS (MB, all ranks) | compile s |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        eff = f"{100 * r['efficiency']:.0f} %" if r["efficiency"] else "-"
+        bpp = f"{r['bytes_per_particle']:.0f}" if r["bytes_per_particle"] else "-"
+        rss = f"{r['peak_rss_mb']:.0f}" if r["peak_rss_mb"] else "-"
+        lines.append(f"| {r['case']} | {r['ranks']} | {r['particles']} | {r['steps']} | "
+                     f"{r['per_rank'] / 1e6:.2f} | {eff} | {bpp} | {rss} | {r['compile_s']:.1f} |")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    print("wrote", path)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,94 @@
+"""pytest-mpi (2 ranks): shared-plane sums, particle migration, and a distributed step
+against the same problem stepped serially on COMM_SELF in the same process."""
+import numpy as np
+import pytest
+
+from pmpm.comm import World, sum_shared_planes, migrate
+from pmpm.comm.slabs import Slabs
+from pmpm.grid import LocalBlock
+from pmpm.particles import Particles
+
+
+def comm_world():
+    from mpi4py import MPI
+    return World(MPI.COMM_WORLD)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_shared_planes_are_summed_once_and_agree():
+    world = comm_world()
+    slabs = Slabs(0, np.linspace(0, 4 * world.size, world.size + 1).astype(int))
+    block = LocalBlock.for_rank(slabs, world.rank, np.zeros(3, int), np.array([4 * world.size - 1, 2, 2]))
+    values = np.full((block.n_nodes, 2), float(world.rank + 1))
+    sum_shared_planes(world, block.shared_planes, block.as_planes(values))
+    planes = block.as_planes(values)
+    for neighbour, index in block.shared_planes:
+        assert np.all(planes[index] == world.rank + 1 + neighbour + 1)
+    interior = [i for i in range(planes.shape[0]) if i not in [ix for _, ix in block.shared_planes]]
+    assert np.all(planes[interior] == world.rank + 1)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_migration_carries_every_column():
+    world = comm_world()
+    n = 10 + world.rank
+    p = Particles.empty(n)
+    p.id[:] = 1000 * world.rank + np.arange(n)
+    p.x[:] = p.id[:, None] * np.array([1.0, 2.0, 3.0])
+    p.stress[:] = p.id[:, None] + np.arange(6)
+    p.body[:] = p.id % 3
+    dest = (p.id % world.size).astype(np.int64)
+    moved = migrate(world, dest, p.columns())
+    q = Particles(moved)
+    assert np.all(q.id % world.size == world.rank)
+    assert np.allclose(q.x, q.id[:, None] * np.array([1.0, 2.0, 3.0]))
+    assert np.allclose(q.stress, q.id[:, None] + np.arange(6))
+    assert np.all(q.body == q.id % 3)
+    assert world.sum(q.n) == sum(10 + r for r in range(world.size))
+
+
+def _fill_box(body, grid, case_dir):
+    g, d = body["geometry"], grid["cell"] / body["particles_per_cell"]
+    axes = [np.arange(g["min"][a] + d / 2, g["max"][a], d) for a in range(3)]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    return x, np.full(len(x), d ** 3)
+
+
+CASE = {
+    "grid": {"min": [0, 0, 0], "max": [12, 8, 8], "cell": 1.0,
+             "boundary": {"x-": "slip", "z-": "fixed"}},
+    "materials": {"steel": {"model": "j2_power", "density": 7.85e-3, "E": 200e3, "nu": 0.3,
+                            "A": 600.0, "B": 275.0, "n": 0.36,
+                            "eos": {"type": "mie_gruneisen", "c0": 3600.0, "s": 1.9,
+                                    "gamma0": 1.7}}},
+    "bodies": [{"name": "block", "material": "steel", "particles_per_cell": 2,
+                "velocity": [-150, 0, -100],
+                "geometry": {"type": "box", "min": [2, 2, 0], "max": [10, 6, 4]}}],
+}
+
+
+def _step_all(world, steps=60):
+    from pmpm.solver.simulation import Simulation
+    sim = Simulation.from_case(world, CASE, ".", _fill_box)
+    dt = 0.4 / sim.initial_speed()
+    for k in range(steps):
+        sim.stepper.step(dt)
+        if k % 10 == 9:
+            sim.stepper.rebalance(0.01)
+            sim.stepper.sort_by_cell()
+    return sim.particles
+
+
+@pytest.mark.mpi(min_size=2)
+def test_distributed_step_equals_serial_step():
+    from mpi4py import MPI
+    world = comm_world()
+    mine = _step_all(world)
+    serial = _step_all(World(MPI.COMM_SELF))
+    ids = np.concatenate(world.allgather(mine.id))
+    xs = np.concatenate(world.allgather(mine.x))
+    order = np.argsort(ids)
+    assert np.array_equal(ids[order], np.sort(serial.id))
+    ref = serial.x[np.argsort(serial.id)]
+    assert np.abs(xs[order] - ref).max() < 1e-10 * 12.0
+    assert np.abs(ref - _fill_box(CASE["bodies"][0], CASE["grid"], ".")[0]).max() > 0.1
