@@ -4,6 +4,7 @@ Exit codes: 0 success; 2 bad input (one line per problem, naming the key, printe
 1 a fault during the run (every rank stops with the same message).
 """
 import argparse
+import contextlib
 import os
 import sys
 
@@ -23,11 +24,27 @@ def parse_args(argv):
     return parser.parse_args(argv)
 
 
+def parse_args_once(comm, argv):
+    """Parse on every rank, but let only rank 0 print usage, help or argument errors.
+    Returns (args, None), or (None, exit status) when argparse wants to exit."""
+    with contextlib.ExitStack() as silence:
+        if not comm.is_root:
+            sink = silence.enter_context(open(os.devnull, "w"))
+            silence.enter_context(contextlib.redirect_stdout(sink))
+            silence.enter_context(contextlib.redirect_stderr(sink))
+        try:
+            return parse_args(argv), None
+        except SystemExit as stop:
+            return None, stop.code
+
+
 def main(argv=None):
-    args = parse_args(sys.argv[1:] if argv is None else argv)
     from .comm import world
     from .app import run_case, InputError
     comm = world()
+    args, status = parse_args_once(comm, sys.argv[1:] if argv is None else argv)
+    if args is None:
+        return status
     try:
         summary_path = run_case(comm, args)
     except InputError as err:

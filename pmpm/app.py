@@ -56,6 +56,8 @@ def prepare_output(world, out, force, restart):
 
 
 def _check_output(out, force, restart):
+    if os.path.exists(out) and not os.path.isdir(out):
+        return f"--out: '{out}' exists and is not a directory"
     exists = os.path.isdir(out) and os.listdir(out)
     if restart:
         from .io import latest_checkpoint
@@ -65,9 +67,12 @@ def _check_output(out, force, restart):
     if exists and not force:
         return (f"--out: output directory '{out}' exists and is not empty; "
                 f"use --force to overwrite it or --restart to continue it")
-    if exists:
-        shutil.rmtree(out)
-    os.makedirs(out, exist_ok=True)
+    try:
+        if exists:
+            shutil.rmtree(out)
+        os.makedirs(out, exist_ok=True)
+    except OSError as err:
+        return f"--out: cannot prepare output directory '{out}': {err.strerror or err}"
     return None
 
 
@@ -75,8 +80,11 @@ def build_simulation(world, case, args, out):
     from .case import fill_body
     from .solver.simulation import Simulation
     if args.restart:
-        from .io import latest_checkpoint, load_checkpoint
-        scalars, columns = load_checkpoint(latest_checkpoint(out), world.raw)
+        scalars, columns = read_checkpoint(world, out)
+        end = float(case["time"]["end"])
+        if scalars["time"] > end * (1 + 1e-12):
+            raise InputError([f"time.end: {end:g} is before the checkpoint's time "
+                              f"{scalars['time']:g}; --set a later time.end to continue"])
         return Simulation.from_checkpoint(world, case, scalars, columns), scalars
     try:
         sim = Simulation.from_case(world, case, os.path.dirname(os.path.abspath(args.case)),
@@ -84,6 +92,16 @@ def build_simulation(world, case, args, out):
     except SetupError as err:
         raise InputError(err.problems) from None
     return sim, None
+
+
+def read_checkpoint(world, out):
+    """Scalars and this rank's share of the newest checkpoint in ``out`` (collective)."""
+    from .io import latest_checkpoint, load_checkpoint
+    path = world.bcast(latest_checkpoint(out) if world.is_root else None)
+    try:
+        return load_checkpoint(path, world.raw)
+    except (OSError, KeyError, ValueError) as err:
+        raise InputError([f"--restart: cannot read checkpoint '{path}': {err}"]) from None
 
 
 def _stem(path):

@@ -73,7 +73,8 @@ def _check_gathered(gathered):
     names = [spec.name for spec in reference]
     for rank, (n, specs, _) in enumerate(gathered):
         if sorted(spec.name for spec in specs) != sorted(names):
-            return None, f"rank {rank} has columns {sorted(s.name for s in specs)}, expected {sorted(names)}"
+            have = sorted(spec.name for spec in specs)
+            return None, f"rank {rank} has columns {have}, expected {sorted(names)}"
         if n > 0 and sorted(specs, key=lambda s: s.name) != sorted(reference, key=lambda s: s.name):
             return None, f"rank {rank} column dtypes or shapes differ from the other ranks'"
     return tuple(reference), None

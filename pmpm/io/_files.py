@@ -74,9 +74,24 @@ def jsonable(value):
     raise TypeError(f"{type(value).__name__} value {value!r} has no JSON form")
 
 
-def dumps(value, **kwargs):
-    """``json.dumps`` after :func:`jsonable`; NaN and infinity are refused."""
-    return json.dumps(jsonable(value), allow_nan=False, **kwargs)
+def dumps(value, allow_nan=False, **kwargs):
+    """``json.dumps`` after :func:`jsonable`; NaN and infinity are refused unless allowed.
+
+    With ``allow_nan=True`` they are written as ``NaN``/``Infinity``, which Python's json
+    reads back exactly but strict JSON parsers refuse: use it for files only pmpm reads.
+    """
+    return json.dumps(jsonable(value), allow_nan=allow_nan, **kwargs)
+
+
+def nonfinite_paths(value, where=""):
+    """Dotted key paths of the NaN or infinite floats nested in ``value``."""
+    if isinstance(value, dict):
+        return [p for key, item in value.items() for p in nonfinite_paths(item, f"{where}.{key}")]
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [p for k, item in enumerate(value) for p in nonfinite_paths(item, f"{where}[{k}]")]
+    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
+        return [where.lstrip(".")]
+    return []
 
 
 def is_finite_number(value):

@@ -77,7 +77,8 @@ def save_checkpoint(directory, comm, scalars, columns, keep=2):
     scalars : dict
         JSON-able solver state taken from rank 0: must hold ``step``; typically also
         ``time``, ``dt``, the frame index, the next frame time and any nested dict.
-        numpy scalars and arrays are converted.
+        numpy scalars and arrays are converted; floats (infinity and NaN included) come
+        back exactly.
     columns : dict of str to numpy.ndarray
         Every local particle column (1D and 2D, any int or float dtype), first axis =
         particle; ranks with no particles pass empty arrays.
@@ -92,7 +93,7 @@ def save_checkpoint(directory, comm, scalars, columns, keep=2):
     """
     if keep < 1:
         raise ValueError(f"keep must be at least 1, got {keep}")
-    text = dumps(C.bcast_root(comm, scalars))
+    text = dumps(C.bcast_root(comm, scalars), allow_nan=True)
     final = checkpoint_path(directory, json.loads(text)["step"])
     tmp = final + ".tmp"
     os.makedirs(os.fspath(directory), exist_ok=True)

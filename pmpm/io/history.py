@@ -85,7 +85,8 @@ class HistoryWriter:
             energies = [energies[key] for key in ENERGY_FIELDS]
         energies = np.asarray(energies, dtype=float).reshape(-1)
         if energies.size != 3:
-            raise ValueError(f"energies: expected 3 values (kinetic, internal, total), got {energies.size}")
+            raise ValueError("energies: expected 3 values (kinetic, internal, total), "
+                             f"got {energies.size}")
         floats = [time, dt, *energies, *self._body_values(body_rows)]
         self._handle.write(",".join([str(int(step))] + [repr(float(v)) for v in floats]) + "\n")
         self._handle.flush()

@@ -132,7 +132,8 @@ class ParticleWriter:
 
     @staticmethod
     def _record(group):
-        columns = {name: (d.dtype.str, int(np.prod(d.shape[1:], dtype=int))) for name, d in group.items()}
+        columns = {name: (d.dtype.str, int(np.prod(d.shape[1:], dtype=int)))
+                   for name, d in group.items()}
         n = int(group.attrs["n"])
         return {"group": group.name, "time": float(group.attrs["time"]), "n": n,
                 "step": int(group.attrs["step"]), "columns": columns, "topology": topology_path(n)}
@@ -209,6 +210,6 @@ class ParticleWriter:
             return
         stats = C.bcast_root(self.comm, run_stats)
         if stats is not None:
-            self._file.attrs["run_stats"] = dumps(stats)
+            self._file.attrs["run_stats"] = dumps(stats, allow_nan=True)
         self._file.close()
         self._file = None

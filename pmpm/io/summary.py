@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 
-from ._files import atomic_write_text, dumps, is_finite_number, resolve
+from ._files import atomic_write_text, dumps, is_finite_number, nonfinite_paths, resolve
 
 #: Top-level keys and their kind: "int", "number", or a nested schema dict.
 SCHEMA = {
@@ -65,10 +65,12 @@ def validate_summary(summary):
     problems = _check_dict(SCHEMA, summary, "")
     bodies = summary.get("bodies") if isinstance(summary, dict) else None
     if not isinstance(bodies, dict) or not bodies:
-        return problems + [f"bodies: expected a non-empty mapping of body name to values, got {bodies!r}"]
+        return problems + [f"bodies: expected a non-empty mapping of name to values, got {bodies!r}"]
     for name, body in bodies.items():
         problems += _check_dict(BODY_SCHEMA, body, f"bodies.{name}")
-    return problems
+    reported = {problem.split(":")[0] for problem in problems}
+    extra = [p for p in nonfinite_paths(summary) if p.split("[")[0] not in reported]
+    return problems + [f"{path}: NaN or infinity has no JSON form" for path in extra]
 
 
 def write_summary(path, summary):

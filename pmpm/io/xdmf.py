@@ -68,7 +68,8 @@ def _column_slab(ref, n, width, component, dtype, indent):
     """A HyperSlab DataItem selecting column ``component`` of an (n, width) dataset."""
     selector = f"0 {component} 1 1 {n} 1"
     return (f'{indent}<DataItem ItemType="HyperSlab" Dimensions="{n} 1" Type="HyperSlab">\n'
-            f'{indent}  <DataItem Dimensions="3 2" NumberType="Int" Format="XML">{selector}</DataItem>\n'
+            f'{indent}  <DataItem Dimensions="3 2" NumberType="Int" Format="XML">'
+            f"{selector}</DataItem>\n"
             + _data_item(ref, (n, width), dtype, indent + "  ")
             + f"{indent}</DataItem>\n")
 

@@ -5,6 +5,8 @@ import time as clock
 import numpy as np
 
 from .. import io
+from ..io.checkpoint import checkpoint_path
+from .errors import SolverError
 from .observe import body_stats, energies
 from .progress import Progress
 
@@ -41,27 +43,48 @@ class Runner:
         self.step_wall = 0.0
         self.frame_index = 0
         self.n_initial = self.world.sum(sim.particles.n)
+        self.wall_before = 0.0
+        self.last_checkpoint = None
         self.restart = restart
         if restart:
-            self.particle_steps = restart["particle_steps"]
-            self.n_initial = restart["n_initial"]
-            sim.stepper.fastest = restart["fastest"]
+            self.restore(restart)
+
+    def restore(self, scalars):
+        """Continue the counters of the run a checkpoint came from (see save_checkpoint)."""
+        sim = self.sim
+        self.particle_steps = scalars["particle_steps"]
+        self.n_initial = scalars["n_initial"]
+        self.step_wall = scalars.get("step_wall", 0.0)
+        self.wall_before = scalars.get("wall_s", 0.0)
+        self.last_checkpoint = scalars["step"]
+        sim.stepper.fastest = scalars["fastest"]
+        sim.stepper.lost = scalars.get("lost", 0)
 
     # -- run ---------------------------------------------------------------------
     def run(self, compile_s=0.0):
         self.compile_s = compile_s
         self.open_outputs()
+        try:
+            self.loop()
+        except SolverError:
+            self.close_outputs()  # collective: every rank raised the same error
+            raise
+
+    def loop(self):
         if not self.restart:
             self.write_frame()
             self.write_history_row(0.0)
-        started = clock.perf_counter()
+        self.started = clock.perf_counter()
         dt = 0.0
         while self.sim.time < self.end * (1 - 1e-12):
             dt = self.next_dt()
             self.advance(dt)
             self.after_step(dt)
-        self.wall_s = clock.perf_counter() - started
         self.finish(dt)
+
+    def wall(self):
+        """Seconds in the run loop so far, those of the runs before a restart included."""
+        return self.wall_before + clock.perf_counter() - self.started
 
     def next_dt(self):
         sim = self.sim
@@ -76,7 +99,10 @@ class Runner:
         sim.stepper.load_vec = sim.load_vectors(sim.time + 0.5 * dt)
         n = self.world.sum(sim.particles.n)
         tick = clock.perf_counter()
-        sim.stepper.step(dt)
+        try:
+            sim.stepper.step(dt)
+        except SolverError as err:
+            raise SolverError(self.fault_message(err, dt)) from None
         self.step_wall += clock.perf_counter() - tick
         self.particle_steps += n
         sim.time += dt
@@ -97,6 +123,14 @@ class Runner:
         if self.checkpoint_due(at_frame):
             self.save_checkpoint(dt)
         self.progress.update(step, sim.time, dt, self.rate())
+
+    def fault_message(self, err, dt):
+        sim = self.sim
+        where = f"step {sim.step_count + 1} (t = {sim.time:.6g} to {sim.time + dt:.6g})"
+        if self.last_checkpoint is None:
+            return f"{where}: {err}; no checkpoint written"
+        last = checkpoint_path(self.out, self.last_checkpoint)
+        return f"{where}: {err}; last checkpoint: {last} (step {self.last_checkpoint})"
 
     def rate(self):
         return self.particle_steps / self.step_wall if self.step_wall > 0 else 0.0
@@ -137,20 +171,31 @@ class Runner:
         scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
                    "slab_axis": sim.slabs.axis, "slab_bounds": sim.slabs.bounds.tolist(),
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
-                   "frame_index": self.frame_index, "fastest": sim.stepper.fastest}
+                   "frame_index": self.frame_index, "fastest": sim.stepper.fastest,
+                   "lost": int(sim.stepper.lost), "step_wall": self.step_wall,
+                   "wall_s": self.wall()}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
+        self.last_checkpoint = sim.step_count
 
     def finish(self, dt):
+        """Final frame, a checkpoint of the final state (so that a run cut short by
+        ``time.end`` can be continued with a later end), summary; close the files."""
         sim = self.sim
         if self.frame_index == 0 or not any(abs(sim.time - t) <= 1e-9 * self.end
                                             for t in self.schedule.times):
             self.write_frame()
+        self.wall_s = self.wall()
+        if self.last_checkpoint != sim.step_count:
+            self.save_checkpoint(dt)
         summary = self.summary()
+        self.close_outputs(summary)
+        if self.world.is_root:
+            io.write_summary(os.path.join(self.out, "summary.json"), summary)
+
+    def close_outputs(self, summary=None):
         self.writer.close(summary)
         if self.history is not None:
             self.history.close()
-        if self.world.is_root:
-            io.write_summary(os.path.join(self.out, "summary.json"), summary)
 
     def summary(self):
         sim = self.sim
@@ -167,5 +212,13 @@ class Runner:
             "particles_lost": int(sim.stepper.lost),
             "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
             "energy": energies(self.world, sim.particles),
-            "bodies": body_stats(self.world, sim.particles, sim.bodies.names),
+            "bodies": self.body_summary(),
         }
+
+    def body_summary(self):
+        stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)
+        for body in stats.values():
+            if body["n_particles"] == 0:  # every particle left the grid: no box to give
+                body["bbox_min"] = list(body["centroid"])
+                body["bbox_max"] = list(body["centroid"])
+        return stats

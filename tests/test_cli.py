@@ -1,0 +1,201 @@
+"""The command line of DESIGN.md "The run contract", run as users run it: bad input (exit 2,
+one line per problem naming its key, printed once), the output directory rules, and the
+files of a successful run, on 1 and 2 ranks."""
+import json
+import os
+import re
+
+import h5py
+import pytest
+
+from clihelp import BAR, pmpm, pmpm_lines, read_history, run_ok, frame_list
+
+RANKS = [1, 2]
+LOAD_NOWHERE = ("loads=[{name: push, body: bar, type: force, value: [0, 0, 1],"
+                " region: {min: [5, 5, 5], max: [6, 6, 6]}}]")
+
+
+def bar_without(tmp_path, line):
+    """cli_bar.yaml with one line removed, written into tmp_path."""
+    with open(BAR, encoding="utf-8") as f:
+        text = f.read()
+    assert line in text
+    path = tmp_path / "case.yaml"
+    path.write_text(text.replace(line + "\n", ""), encoding="utf-8")
+    return path
+
+
+def bad_input_cases(tmp_path):
+    """name -> (case file, --set items, the problem lines expected, as regexes)."""
+    (tmp_path / "garbage.msh").write_text("not a mesh\n")
+    case = tmp_path / "bar.yaml"
+    case.write_text(open(BAR, encoding="utf-8").read(), encoding="utf-8")
+    return {
+        "unknown material": (case, ["bodies.0.material=steel"],
+                             [r"bodies\[0\]\.material: unknown material 'steel'"]),
+        "missing parameter": (bar_without(tmp_path, "    A: 157.0"), [],
+                              [r"materials\.copper\.A: missing"]),
+        "body outside grid": (case, ["bodies.0.geometry.base=[0,0,8]"],
+                              [r"bodies\[0\]\.geometry: body extends outside the grid"]),
+        "missing mesh file": (case, ["bodies.0.geometry={type: mesh, file: nothing.msh}"],
+                              [r"bodies\[0\]\.geometry\.file: cannot read 'nothing\.msh'"]),
+        "unreadable mesh": (case, ["bodies.0.geometry={type: mesh, file: garbage.msh}"],
+                            [r"bodies\[0\]\.geometry\.file: cannot read 'garbage\.msh'"]),
+        "bad --set": (case, ["time..end=1"], [r"--set time\.\.end=1: expected KEY=VALUE"]),
+        "--set list item": (case, ["bodies.3.name=x"], [r"bodies\[3\]: --set: no item 3"]),
+        "unknown key": (case, ["time.endd=1"], [r"time\.endd: unknown key \(did you mean 'end'\?\)"]),
+        "empty load region": (case, [LOAD_NOWHERE],
+                              [r"loads\[0\]\.region: selects no particle of body 'bar'"]),
+        "several at once": (case, ["bodies.0.material=steel", "time.cfl=2", "output.frame=3"],
+                            [r"bodies\[0\]\.material: unknown material",
+                             r"time\.cfl: ", r"output\.frame: unknown key"]),
+    }
+
+
+#: Problems found at different stages (case loading, --set, geometry fill, load
+#: assignment): each must be printed once on 2 ranks too.
+ON_TWO_RANKS = ["several at once", "bad --set", "unreadable mesh", "empty load region"]
+BAD_INPUT = [(name, 1) for name in [
+    "unknown material", "missing parameter", "body outside grid", "missing mesh file",
+    "unreadable mesh", "bad --set", "--set list item", "unknown key", "empty load region",
+    "several at once"]] + [(name, 2) for name in ON_TWO_RANKS]
+
+
+@pytest.mark.parametrize("name, ranks", BAD_INPUT)
+def test_bad_input_exits_2_with_one_line_per_problem(tmp_path, name, ranks):
+    case, sets, expected = bad_input_cases(tmp_path)[name]
+    out = tmp_path / "out"
+    done = pmpm([case, "--out", out] + [x for item in sets for x in ("--set", item)], ranks)
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    lines = pmpm_lines(done.stderr)
+    assert len(lines) == len(expected), lines
+    for line, pattern in zip(sorted(lines), sorted(expected)):
+        assert line.startswith("pmpm: error: "), line
+        assert re.search(pattern, line), f"{line!r} !~ {pattern!r}"
+    assert done.stdout == ""
+    assert not out.exists() or not any(out.iterdir()), "wrote output"
+
+
+@pytest.mark.parametrize("ranks", RANKS)
+def test_command_line_errors_are_printed_once(tmp_path, ranks):
+    done = pmpm(["--bogus", BAR], ranks)
+    assert done.returncode == 2
+    assert done.stderr.count("unrecognized arguments: --bogus") == 1
+    done = pmpm([tmp_path / "absent.yaml"], ranks)
+    assert done.returncode == 2
+    assert pmpm_lines(done.stderr) == [
+        f"pmpm: error: {tmp_path / 'absent.yaml'}: cannot read case file: No such file or directory"]
+
+
+@pytest.mark.parametrize("ranks", RANKS)
+def test_existing_output_is_kept_without_force(tmp_path, ranks):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine\n")
+    before = os.stat(out / "notes.txt")
+    done = pmpm([BAR, "--out", out], ranks)
+    assert done.returncode == 2
+    assert pmpm_lines(done.stderr) == [
+        f"pmpm: error: --out: output directory '{out}' exists and is not empty; "
+        "use --force to overwrite it or --restart to continue it"]
+    assert sorted(os.listdir(out)) == ["notes.txt"]
+    after = os.stat(out / "notes.txt")
+    assert (after.st_mtime_ns, after.st_size) == (before.st_mtime_ns, before.st_size)
+
+
+def test_force_overwrites(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine\n")
+    run_ok([BAR, "--out", out, "--force", "--quiet", "--set", "time.end=0.0025"])
+    assert not (out / "notes.txt").exists()
+    assert (out / "summary.json").exists()
+
+
+def test_output_that_is_a_file_is_refused(tmp_path):
+    out = tmp_path / "out"
+    out.write_text("a file\n")
+    done = pmpm([BAR, "--out", out, "--force"])
+    assert done.returncode == 2
+    assert pmpm_lines(done.stderr) == [f"pmpm: error: --out: '{out}' exists and is not a directory"]
+    assert out.read_text() == "a file\n"
+
+
+def test_default_output_is_results_stem_in_the_working_directory(tmp_path):
+    run_ok([BAR, "--quiet", "--set", "time.end=0.0025"], cwd=tmp_path)
+    assert (tmp_path / "results" / "cli_bar" / "summary.json").exists()
+
+
+def check_summary(summary, ranks):
+    assert summary["ranks"] == ranks
+    assert summary["n_particles"] == {"initial": 624, "final": 624}
+    assert summary["n_steps"] == 48
+    assert summary["t_end"] == pytest.approx(0.005, rel=1e-12)
+    for key in ("wall_s", "compile_s", "particle_steps_per_s"):
+        assert isinstance(summary[key], float) and summary[key] >= 0, key
+    assert summary["particle_steps_per_s"] > 0
+    energy = summary["energy"]
+    assert set(energy) >= {"kinetic", "internal", "total"}
+    assert energy["total"] == pytest.approx(energy["kinetic"] + energy["internal"])
+    bar = summary["bodies"]["bar"]
+    assert set(bar) >= {"mass", "n_particles", "centroid", "velocity", "bbox_min", "bbox_max"}
+    assert bar["n_particles"] == 624
+    assert bar["mass"] == pytest.approx(624 * 8.93e-3 * 0.5 ** 3)
+    for key in ("centroid", "velocity", "bbox_min", "bbox_max"):
+        assert len(bar[key]) == 3, key
+    assert all(lo < c < hi for lo, c, hi in zip(bar["bbox_min"], bar["centroid"], bar["bbox_max"]))
+    assert bar["velocity"][2] < 0
+
+
+def check_history(out):
+    header, rows = read_history(out)
+    assert header == ["step", "time", "dt", "kinetic", "internal", "total",
+                      "bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz"]
+    steps = rows[:, 0]
+    assert steps[0] == 0 and steps[-1] == 48
+    assert (steps[1:] > steps[:-1]).all() and (rows[1:, 1] > rows[:-1, 1]).all()
+    assert {0, 5, 10, 45, 48} <= set(steps.astype(int))
+
+
+def check_particles(out):
+    frames = frame_list(out)
+    assert [t for t, _ in frames] == pytest.approx([0.0, 0.0025, 0.005], rel=1e-12, abs=1e-15)
+    assert frames[0][1] == 0 and frames[-1][1] == 48
+    with h5py.File(out / "particles.h5", "r") as f:
+        assert "case" in f and "run_stats" in f.attrs
+        for name in ("000000", "000002"):
+            group = f["frames"][name]
+            assert group["x"].shape == (624, 3) and group["stress"].shape == (624, 6)
+            assert group["stress"].attrs["components"] == "xx,yy,zz,xy,yz,zx"
+            for column in ("v", "eps_p", "density", "mass", "body", "id"):
+                assert len(group[column]) == 624, column
+    xdmf = (out / "particles.xdmf").read_text()
+    assert xdmf.count("particles.h5:/frames/") >= 3
+
+
+def check_progress(stdout):
+    """Not on a terminal: a line at each 5 % of the run, ending with 100 %."""
+    percents = [float(m) for m in re.findall(r"^step .* (\d+\.\d)%", stdout, re.M)]
+    assert percents[-1] == 100.0
+    assert len(percents) == 20
+    for k, percent in enumerate(percents, start=1):
+        assert 5 * k <= percent < 5 * k + 5
+
+
+@pytest.mark.parametrize("ranks", RANKS)
+def test_successful_run_writes_the_contract_files(tmp_path, ranks):
+    out = tmp_path / "out"
+    done = run_ok([BAR, "--out", out], ranks)
+    with open(out / "summary.json", encoding="utf-8") as f:
+        check_summary(json.load(f), ranks)
+    check_history(out)
+    check_particles(out)
+    check_progress(done.stdout)
+    assert done.stdout.rstrip().endswith(f"pmpm: done; results in {out}")
+    assert pmpm_lines(done.stderr) == []
+
+
+def test_quiet_prints_nothing(tmp_path):
+    done = run_ok([BAR, "--out", tmp_path / "out", "--quiet", "--set", "time.end=0.0025"])
+    assert done.stdout == ""

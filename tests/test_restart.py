@@ -1,0 +1,120 @@
+"""--restart: a run continued from a checkpoint ends where the uninterrupted one does, with
+the same time steps, and leaves history.csv and particles.h5 as one run would have.
+
+cli_bar.yaml has a frame at t = 0.0025, half its end time, so a run cut there with
+``--set time.end=0.0025`` takes the same steps as the full run up to there; it leaves a
+checkpoint of its final state, from which ``--restart --set time.end=0.005`` goes on.
+"""
+import os
+
+import numpy as np
+import pytest
+
+from clihelp import (BAR, BAR_HALF_END, assert_same_state, frame, frame_list, pmpm,
+                     pmpm_lines, read_history, run_ok)
+from pmpm.io import latest_checkpoint
+from pmpm.io.summary import read_summary
+from pmpm.io.checkpoint import list_checkpoints
+
+END = "time.end=0.005"
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    """The full run of cli_bar.yaml on 1 rank (48 steps, checkpoints every 10)."""
+    out = tmp_path_factory.mktemp("restart") / "full"
+    run_ok([BAR, "--out", out, "--quiet"])
+    return out
+
+
+def cut_run(out, ranks=1):
+    run_ok([BAR, "--out", out, "--quiet", "--set", f"time.end={BAR_HALF_END}"], ranks)
+
+
+def restart(out, ranks=1, end=END):
+    return run_ok([BAR, "--out", out, "--quiet", "--restart", "--set", end], ranks)
+
+
+def assert_continues(out, full, rtol):
+    """``out`` holds the same final state, history and frames as the run in ``full``."""
+    assert_same_state(frame(full), frame(out), rtol)
+    header, rows = read_history(out)
+    full_header, full_rows = read_history(full)
+    assert header == full_header
+    steps = rows[:, 0]
+    assert len(set(steps)) == len(steps), "repeated steps in history.csv"
+    assert (np.diff(steps) > 0).all() and (np.diff(rows[:, 1]) > 0).all()
+    assert set(full_rows[:, 0]) <= set(steps)
+    same = np.isin(steps, full_rows[:, 0])
+    # the time-step sequence after the restart is the uninterrupted one
+    np.testing.assert_allclose(rows[same, :3], full_rows[:, :3], rtol=rtol, atol=0)
+    np.testing.assert_allclose(rows[same, 3:], full_rows[:, 3:], rtol=1e-9, atol=1e-9)
+    frames = frame_list(out)
+    times = [t for t, _ in frames]
+    assert times == sorted(set(times)), f"frames out of order or repeated: {frames}"
+    assert frames[0] == (0.0, 0)
+    assert frames[-1][1] == frame_list(full)[-1][1] == 48
+
+
+def test_restart_after_a_cut_run_matches_the_uninterrupted_run(tmp_path, uninterrupted):
+    out = tmp_path / "out"
+    cut_run(out)
+    assert latest_checkpoint(out).endswith("checkpoint_000024.h5"), os.listdir(out)
+    restart(out)
+    assert_continues(out, uninterrupted, rtol=1e-12)
+    assert frame_list(out) == frame_list(uninterrupted)
+    summary, full = read_summary(out), read_summary(uninterrupted)
+    for key in ("n_steps", "t_end", "n_particles", "energy", "bodies"):
+        assert summary[key] == full[key], key
+
+
+def test_restart_after_a_crash_matches_the_uninterrupted_run(tmp_path, uninterrupted):
+    """A run killed after step 40: its checkpoint of step 48 is gone, and history.csv and
+    particles.h5 hold rows and a frame written after the checkpoint of step 40."""
+    out = tmp_path / "out"
+    run_ok([BAR, "--out", out, "--quiet"])
+    assert [step for step, _ in list_checkpoints(out)] == [40, 48]
+    os.remove(latest_checkpoint(out))
+    (out / "summary.json").unlink()
+    restart(out)
+    assert_continues(out, uninterrupted, rtol=1e-12)
+    assert frame_list(out) == frame_list(uninterrupted)
+    assert [step for step, _ in list_checkpoints(out)][-1] == 48
+
+
+@pytest.mark.parametrize("before, after", [(1, 2), (2, 1)])
+def test_restart_on_another_number_of_ranks(tmp_path, uninterrupted, before, after):
+    out = tmp_path / "out"
+    cut_run(out, ranks=before)
+    restart(out, ranks=after)
+    assert_continues(out, uninterrupted, rtol=1e-12)
+    summary = read_summary(out)
+    assert summary["ranks"] == after and summary["n_steps"] == 48
+
+
+def test_restart_of_a_finished_run_changes_nothing(tmp_path, uninterrupted):
+    out = tmp_path / "out"
+    run_ok([BAR, "--out", out, "--quiet"])
+    before = read_history(out)[1]
+    restart(out)
+    assert np.array_equal(read_history(out)[1], before)
+    assert frame_list(out) == frame_list(uninterrupted)
+    assert_same_state(frame(uninterrupted), frame(out), 0.0)
+
+
+def test_restart_needs_a_checkpoint(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    done = pmpm([BAR, "--out", out, "--restart"])
+    assert done.returncode == 2
+    assert pmpm_lines(done.stderr) == [f"pmpm: error: --restart: no checkpoint in '{out}'"]
+
+
+def test_restart_with_an_earlier_end_time_is_refused(tmp_path, uninterrupted):
+    out = tmp_path / "out"
+    cut_run(out)
+    done = pmpm([BAR, "--out", out, "--restart", "--set", "time.end=0.001",
+                 "--set", "output.times=[]"])
+    assert done.returncode == 2, done.stderr
+    lines = pmpm_lines(done.stderr)
+    assert len(lines) == 1 and lines[0].startswith("pmpm: error: time.end: 0.001 is before"), lines
