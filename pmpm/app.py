@@ -23,11 +23,13 @@ def run_case(world, args):
     out = args.out or os.path.join("results", _stem(args.case))
     prepare_output(world, out, args.force, args.restart)
     from .kernels.warmup import warm_up
+    from .solver.memory import current_rss_bytes
     from .solver.run import Runner
-    sim, restart = build_simulation(world, case, args, out)
     compile_s = world.max(warm_up())
+    baseline = current_rss_bytes()
+    sim, restart = build_simulation(world, case, args, out)
     runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart)
-    runner.run(compile_s=compile_s)
+    runner.run(compile_s=compile_s, baseline_rss=baseline)
     return os.path.join(out, "summary.json")
 
 

@@ -152,7 +152,8 @@ def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, l
     fastest, bad = 0.0, -1
     for p in range(x.shape[0]):
         b = body[p]
-        if body_rigid[b]:
+        if body_rigid[b]:          # moves with its own velocity, which limits the step too
+            fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
             continue
         trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
         velocity_gradient(nodes, gx, gy, gz, gvel, Lg)

@@ -7,6 +7,7 @@ import numpy as np
 from .. import io
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
+from .memory import memory_summary
 from .observe import body_stats, energies
 from .progress import Progress
 
@@ -61,8 +62,9 @@ class Runner:
         sim.stepper.lost = scalars.get("lost", 0)
 
     # -- run ---------------------------------------------------------------------
-    def run(self, compile_s=0.0):
+    def run(self, compile_s=0.0, baseline_rss=0):
         self.compile_s = compile_s
+        self.baseline_rss = baseline_rss
         self.open_outputs()
         try:
             self.loop()
@@ -212,6 +214,7 @@ class Runner:
             "particles_lost": int(sim.stepper.lost),
             "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
             "energy": energies(self.world, sim.particles),
+            "memory": memory_summary(self.world, self.baseline_rss, self.n_initial),
             "bodies": self.body_summary(),
         }
 
