@@ -12,7 +12,7 @@ import yaml
 from pmpm.case import CaseError, fill_body, load_case, validate_case
 from pmpm.case.expressions import ExpressionError, evaluate
 
-DOCS = pathlib.Path(__file__).resolve().parent.parent / "docs" / "case_format.md"
+README = pathlib.Path(__file__).resolve().parent.parent / "README.md"
 
 TAYLOR = {
     "params": {"cell": 0.76, "v0": 190},
@@ -204,7 +204,8 @@ def test_yaml_exponent_numbers_are_floats(tmp_path):
 
 
 def test_docs_example_loads(tmp_path):
-    example = re.search(r"```yaml\n(.*?)```", DOCS.read_text(), re.S).group(1)
+    text = README.read_text().split("## The case file", 1)[1]
+    example = re.search(r"```yaml\n(.*?)```", text, re.S).group(1)
     path = tmp_path / "taylor_bar.yaml"
     path.write_text(example)
     case = load_case(path)

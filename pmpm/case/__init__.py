@@ -8,7 +8,7 @@ catalog. Public API:
 - :func:`validate_case` the same for a raw tree already in memory (e.g. a stored case).
 - :func:`fill_body` (body, grid, case_dir) -> (positions (n, 3), volumes (n,)).
 
-The keys, units and defaults are documented in ``docs/case_format.md``.
+The keys, units and defaults are documented in the README ("The case file").
 """
 from .errors import CaseError
 from .fill import fill_body
