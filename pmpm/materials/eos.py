@@ -12,9 +12,10 @@ from numba import njit
 
 from .layout import (EOS_C0, EOS_GAMMA0, EOS_LINEAR, EOS_MIE_GRUNEISEN, EOS_S, EOS_TYPE,
                      RHO0)
+from .tensors import fdiv
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def mie_gruneisen_reference(mu, rho0, c0, s, gamma0):
     """Mie-Grueneisen pressure at zero internal energy (seed 001 Eq. 38 with E_n = 0).
 
@@ -46,10 +47,10 @@ def mie_gruneisen_reference(mu, rho0, c0, s, gamma0):
     den = 1.0 - (s - 1.0) * mu
     if den <= 0.0:
         return math.nan
-    return rho0 * c0 * c0 * (mu * (1.0 + mu) - 0.5 * gamma0 * mu * mu) / (den * den)
+    return fdiv(rho0 * c0 * c0 * (mu * (1.0 + mu) - 0.5 * gamma0 * mu * mu), den * den)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def mie_gruneisen_pressure(mu, e_n, rho0, c0, s, gamma0):
     """Mie-Grueneisen pressure, seed 001 Eq. 38: reference pressure plus ``gamma0 E_n``.
 
@@ -58,7 +59,7 @@ def mie_gruneisen_pressure(mu, e_n, rho0, c0, s, gamma0):
     return mie_gruneisen_reference(mu, rho0, c0, s, gamma0) + gamma0 * e_n
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def mie_gruneisen_tangent(mu, pressure, rho0, c0, s, gamma0):
     """Isentropic slope ``dp/drho`` of the Mie-Grueneisen EOS (the square of a sound speed).
 
@@ -79,8 +80,70 @@ def mie_gruneisen_tangent(mu, pressure, rho0, c0, s, gamma0):
         df = 1.0 + 2.0 * mu - gamma0 * mu
         g = lin * lin
         dg = -2.0 * (s - 1.0) * lin
-        dref = rho0 * c0 * c0 * (df * g - f * dg) / (g * g)
-    return (dref + gamma0 * pressure / ((1.0 + mu) * (1.0 + mu))) / rho0
+        dref = fdiv(rho0 * c0 * c0 * (df * g - f * dg), g * g)
+    return fdiv(dref + fdiv(gamma0 * pressure, (1.0 + mu) * (1.0 + mu)), rho0)
+
+
+@njit(cache=True, inline="always")
+def eos_at_density(eos_type, rho, rho0, c0, s, gamma0):
+    """Everything of an EOS at density ``rho`` that does not depend on the energy.
+
+    Parameters
+    ----------
+    eos_type : float
+        ``EOS_MIE_GRUNEISEN`` or ``EOS_LINEAR`` (slot ``EOS_TYPE``).
+    rho : float
+        Current density.
+    rho0, c0, s, gamma0 : float
+        The row's EOS constants (``s`` and ``gamma0`` unused by the linear EOS).
+
+    Returns
+    -------
+    a, b : float
+        Pressure ``p = a + b * e_int`` (as :func:`eos_pressure_coefficients`).
+    dref, opm2 : float
+        The isentropic slope at pressure ``P`` is
+        ``(dref + gamma0 * P / opm2) / rho0`` for Mie-Grueneisen
+        (:func:`eos_tangent_at`), ``c0^2`` for the linear EOS.
+
+    Notes
+    -----
+    The same arithmetic, operation for operation, as :func:`mie_gruneisen_reference` and
+    :func:`mie_gruneisen_tangent`, sharing what the two have in common (``mu``,
+    ``1 - (s-1) mu``, ``mu (1 + mu) - gamma0 mu^2/2``), so the stress kernel evaluates the
+    Hugoniot once per step for the pressure and both wave speeds.
+    """
+    mu = fdiv(rho, rho0) - 1.0
+    rc2 = rho0 * c0 * c0
+    if eos_type != EOS_MIE_GRUNEISEN:
+        return rc2 * mu, 0.0, 0.0, 1.0
+    if mu <= 0.0:
+        a = rc2 * mu
+        dref = rc2
+    else:
+        lin = 1.0 - (s - 1.0) * mu
+        if lin <= 0.0:
+            a = math.nan
+            dref = math.nan
+        else:
+            f = mu * (1.0 + mu) - 0.5 * gamma0 * mu * mu
+            df = 1.0 + 2.0 * mu - gamma0 * mu
+            g = lin * lin
+            dg = -2.0 * (s - 1.0) * lin
+            a = fdiv(rc2 * f, g)
+            dref = fdiv(rc2 * (df * g - f * dg), g * g)
+    return a, gamma0 * rho0, dref, (1.0 + mu) * (1.0 + mu)
+
+
+@njit(cache=True, inline="always")
+def eos_tangent_at(eos_type, pressure, rho0, c0, gamma0, dref, opm2):
+    """Isentropic ``dp/drho`` at ``pressure`` from the parts :func:`eos_at_density` returns
+    (equal to :func:`eos_tangent`)."""
+    if eos_type == EOS_MIE_GRUNEISEN:
+        return fdiv(dref + fdiv(gamma0 * pressure, opm2), rho0)
+    if eos_type == EOS_LINEAR:
+        return c0 * c0
+    return 0.0
 
 
 @njit(cache=True)
@@ -102,7 +165,7 @@ def eos_pressure_coefficients(prm, rho):
     """
     rho0 = prm[RHO0]
     c0 = prm[EOS_C0]
-    mu = rho / rho0 - 1.0
+    mu = fdiv(rho, rho0) - 1.0
     if prm[EOS_TYPE] == EOS_MIE_GRUNEISEN:
         a = mie_gruneisen_reference(mu, rho0, c0, prm[EOS_S], prm[EOS_GAMMA0])
         return a, prm[EOS_GAMMA0] * rho0
@@ -115,14 +178,14 @@ def eos_tangent(prm, rho, pressure):
     rho0 = prm[RHO0]
     c0 = prm[EOS_C0]
     if prm[EOS_TYPE] == EOS_MIE_GRUNEISEN:
-        return mie_gruneisen_tangent(rho / rho0 - 1.0, pressure, rho0, c0,
+        return mie_gruneisen_tangent(fdiv(rho, rho0) - 1.0, pressure, rho0, c0,
                                      prm[EOS_S], prm[EOS_GAMMA0])
     if prm[EOS_TYPE] == EOS_LINEAR:
         return c0 * c0
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def bulk_viscosity(rho, h, c, div, q_linear, q_quadratic):
     """Artificial bulk viscosity pressure (von Neumann-Richtmyer plus a linear term).
 

@@ -17,33 +17,48 @@ One step of a particle, in order:
 
 Units are those of the case (CONTRACTS.md); stress is Voigt (xx, yy, zz, xy, yz, zx),
 tension positive, pressure positive in compression.
+
+Speed
+-----
+:func:`update_stress` and every helper it calls are inlined at Numba IR level
+(``inline="always"``), :func:`update_stress` itself into the caller's particle loop: no
+tuple goes through memory, no call passes the particle columns, and LLVM schedules the
+whole update at once. Inside, the arrays are read first and written last, outside any
+branch, and every division goes through :func:`pmpm.materials.tensors.fdiv`: an array
+touched in a branch, or a ZeroDivisionError path, keeps Numba's reference counting of
+the arrays alive in the compiled loop (atomic operations on every particle). The update
+itself (:func:`material_step`) works on values only. With an EOS, the Hugoniot at the new
+density is evaluated once and serves the pressure and both wave speeds. Linear hardening
+without rate term (the Taylor bar's copper) is a closed form: one square root.
 """
 import math
 
 from numba import njit
 
-from .eos import bulk_viscosity, eos_pressure_coefficients, eos_tangent, mie_gruneisen_pressure
-from .layout import (CHI, CP, EOS_C0, EOS_NONE, EOS_TYPE, EPS_FAIL, FLUID, G, J2_PLASTIC,
-                     JOHNSON_COOK, K, NEO_HOOKEAN, Q_LINEAR, Q_QUADRATIC, RIGID,
+from .eos import bulk_viscosity, eos_at_density, eos_tangent_at, mie_gruneisen_pressure
+from .layout import (A, B, C, CHI, CP, EOS_C0, EOS_GAMMA0, EOS_NONE, EOS_S, EOS_TYPE,
+                     EPS_DOT0, EPS_FAIL, FLUID, G, J2_PLASTIC, JOHNSON_COOK, K, M, N, N_SLOTS,
+                     NEO_HOOKEAN, Q_LINEAR, Q_QUADRATIC, RHO0, RIGID, T_MELT, T_ROOM,
                      TENSION_CUTOFF, VISCOSITY)
-from .plasticity import return_map
-from .tensors import (add, all_finite, deviator, double_dot, jaumann_rotate, load_row6, scale,
-                      spin, store_stress, strain_rate, trace)
+from .plasticity import plastic_multiplier, radial_return, thermal_factor
+from .tensors import (add, all_finite, deviator, double_dot, fdiv, jaumann_rotate, scale,
+                      skew9, sym9, trace, von_mises)
 
 __all__ = ["update_stress", "wave_speed", "bulk_viscosity", "mie_gruneisen_pressure",
            "jaumann_rotate", "deviator", "neo_hookean_stress"]
 
 ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+if N_SLOTS != 24:
+    raise ImportError("update_stress reads a parameter row of 24 slots: update it with layout")
 
 
-@njit(cache=True)
-def advance_deformation_gradient(F, p, Lg, dt):
-    """``(I + Lg dt) F[p]`` as a row-major 9-tuple (F is not written)."""
-    f0, f1, f2, f3, f4, f5, f6, f7, f8 = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4],
-                                          F[p, 5], F[p, 6], F[p, 7], F[p, 8])
-    a00, a01, a02 = 1.0 + Lg[0, 0] * dt, Lg[0, 1] * dt, Lg[0, 2] * dt
-    a10, a11, a12 = Lg[1, 0] * dt, 1.0 + Lg[1, 1] * dt, Lg[1, 2] * dt
-    a20, a21, a22 = Lg[2, 0] * dt, Lg[2, 1] * dt, 1.0 + Lg[2, 2] * dt
+@njit(cache=True, inline="always")
+def advance_deformation_gradient(f, l, dt):
+    """``(I + Lg dt) F`` for ``F`` (``f``) and ``Lg`` (``l``) given as row-major 9-tuples."""
+    f0, f1, f2, f3, f4, f5, f6, f7, f8 = f
+    a00, a01, a02 = 1.0 + l[0] * dt, l[1] * dt, l[2] * dt
+    a10, a11, a12 = l[3] * dt, 1.0 + l[4] * dt, l[5] * dt
+    a20, a21, a22 = l[6] * dt, l[7] * dt, 1.0 + l[8] * dt
     return (a00 * f0 + a01 * f3 + a02 * f6, a00 * f1 + a01 * f4 + a02 * f7,
             a00 * f2 + a01 * f5 + a02 * f8,
             a10 * f0 + a11 * f3 + a12 * f6, a10 * f1 + a11 * f4 + a12 * f7,
@@ -52,14 +67,7 @@ def advance_deformation_gradient(F, p, Lg, dt):
             a20 * f2 + a21 * f5 + a22 * f8)
 
 
-@njit(cache=True)
-def store_row9(F, p, f):
-    """Write a 9-tuple to row ``p`` of an (n, 9) array."""
-    for i in range(9):
-        F[p, i] = f[i]
-
-
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def neo_hookean_stress(f, g, k):
     """Compressible Neo-Hookean Cauchy stress from a deformation gradient.
 
@@ -92,100 +100,82 @@ def neo_hookean_stress(f, g, k):
     bxy = f[0] * f[3] + f[1] * f[4] + f[2] * f[5]
     byz = f[3] * f[6] + f[4] * f[7] + f[5] * f[8]
     bzx = f[6] * f[0] + f[7] * f[1] + f[8] * f[2]
-    s = scale(deviator((bxx, byy, bzz, bxy, byz, bzx)), g / jac)
+    g_j = fdiv(g, jac)
+    s = scale(deviator((bxx, byy, bzz, bxy, byz, bzx)), g_j)
     lam = k - 2.0 * g / 3.0
-    pressure = -(g / jac * (bxx + byy + bzz - 3.0) / 3.0 + lam * math.log(jac) / jac)
+    pressure = -(g_j * (bxx + byy + bzz - 3.0) / 3.0 + fdiv(lam * math.log(jac), jac))
     return s, pressure
 
 
-@njit(cache=True)
-def hypoelastic_trial(sig_old, w, de, g, dt):
-    """Rotated old deviator and elastic trial deviator of a hypoelastic step.
-
-    Returns ``(s_rot, s_rot + 2 g dev(de))`` where ``s_rot`` is the deviator of the
-    Jaumann-rotated old stress (rotation leaves the pressure unchanged).
-    """
-    s_rot = deviator(jaumann_rotate(sig_old, w, dt))
-    return s_rot, add(s_rot, scale(deviator(de), 2.0 * g))
-
-
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def has_failed(eps_p, eps_fail):
     """Particle failure of seed 001 Sec. 5.3: ``eps_fail > 0`` and ``eps_p >= eps_fail``."""
     return eps_fail > 0.0 and eps_p >= eps_fail
 
 
-@njit(cache=True)
-def plastic_step(p, prm, g, s_trial, eps_p, temp, dt, rho_mid):
-    """Return map, plastic strain, adiabatic heating and failure of particle ``p``.
+@njit(cache=True, inline="always")
+def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, t_room,
+                 t_melt, cp, chi, eps_fail):
+    """Return map, plastic strain, adiabatic heating and failure of one particle.
 
-    Updates ``eps_p[p]`` and ``temp[p]``; returns ``(s, converged)``.
+    Parameters
+    ----------
+    s_trial : tuple of 6 float
+        Elastic trial deviator.
+    g : float
+        Shear modulus.
+    eps0, temp0 : float
+        Plastic strain and temperature at the start of the step.
+    dt, rho_mid : float
+        Time step, mid-step density.
+    a, b, n, c, eps_dot0, m, t_room, t_melt, cp, chi, eps_fail : float
+        The row's plastic constants (``pmpm.materials.layout`` slots of the same names).
+
+    Returns
+    -------
+    s : tuple of 6 float
+        Deviatoric stress at the end of the step.
+    eps1, temp1 : float
+        Plastic strain and temperature at the end of the step.
+    converged : bool
+        False when the return map failed.
 
     Notes
     -----
     A failed particle (seed 001 Sec. 5.3) carries no deviatoric stress and its plastic
     strain no longer grows; a particle that reaches ``eps_fail`` during the step loses its
     deviator at the end of the step. Heating ``dT = chi sigma_y dlam / (rho cp)`` is applied
-    when ``cp > 0`` (seed 001 Eq. 39 with the Taylor-Quinney factor chi).
+    when ``cp > 0`` (seed 001 Eq. 39 with the Taylor-Quinney factor chi). The thermal
+    factor uses the start-of-step temperature. Linear hardening without rate term takes
+    the closed form of :func:`pmpm.materials.plasticity.plastic_multiplier`: one square
+    root (the von Mises stress), no other transcendental call.
     """
-    eps_fail = prm[EPS_FAIL]
-    if has_failed(eps_p[p], eps_fail):
-        return ZERO6, True
-    s, dlam, sigma_y, ok = return_map(prm, g, s_trial, eps_p[p], temp[p], dt)
-    eps_p[p] += dlam
-    if prm[CP] > 0.0:
-        temp[p] += prm[CHI] * sigma_y * dlam / (rho_mid * prm[CP])
-    if has_failed(eps_p[p], eps_fail):
-        return ZERO6, ok
-    return s, ok
+    if has_failed(eps0, eps_fail):
+        return ZERO6, eps0, temp0, True
+    theta = thermal_factor(m, temp0, t_room, t_melt)
+    q_trial = von_mises(s_trial)
+    dlam, sigma_y, ok = plastic_multiplier(q_trial, g, eps0, dt, a, b, n, c, eps_dot0, theta)
+    s = radial_return(s_trial, q_trial, sigma_y)
+    eps1 = eps0 + dlam
+    temp1 = temp0
+    if cp > 0.0:
+        temp1 = temp0 + fdiv(chi * sigma_y * dlam, rho_mid * cp)
+    if has_failed(eps1, eps_fail):
+        return ZERO6, eps1, temp1, ok
+    return s, eps1, temp1, ok
 
 
-@njit(cache=True)
-def deviatoric_update(p, code, prm, dt, Lg, f_new, sig_old, p_old, dv, rho_mid, eps_p, temp):
-    """Model-specific part of a step: new deviator, work deviator and strength pressure.
-
-    Returns
-    -------
-    s_new : tuple of 6 float
-        Deviatoric stress at the end of the step.
-    s_work : tuple of 6 float
-        Deviator whose contraction with ``de`` is the deviatoric work of the step.
-    p_new : float
-        End-of-step pressure without an EOS: ``p_old - K dv`` (hypoelastic, fluid) or the
-        Neo-Hookean pressure; replaced by the EOS pressure when the row has one.
-    converged : bool
-        False when the return map failed.
-
-    Notes
-    -----
-    Updates ``eps_p[p]`` and ``temp[p]`` of the plastic models.
-    """
-    d = strain_rate(Lg)
-    g = prm[G]
-    if code == NEO_HOOKEAN:
-        s_new, p_new = neo_hookean_stress(f_new, g, prm[K])
-        return s_new, scale(add(deviator(sig_old), s_new), 0.5), p_new, True
-    if code == FLUID:
-        s_new = scale(deviator(d), 2.0 * prm[VISCOSITY])
-        return s_new, s_new, p_old - prm[K] * dv, True
-    s_rot, s_new = hypoelastic_trial(sig_old, spin(Lg), scale(d, dt), g, dt)
-    converged = True
-    if code == J2_PLASTIC or code == JOHNSON_COOK:
-        s_new, converged = plastic_step(p, prm, g, s_new, eps_p, temp, dt, rho_mid)
-    return s_new, scale(add(s_rot, s_new), 0.5), p_old - prm[K] * dv, converged
-
-
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def energy_known_pressure(e_old, work_dev, p_old, p_new, q, dv, rho_mid):
     """Specific internal energy after a step whose end pressure is known.
 
     ``e + [s_avg : de - ((p_old + p_new)/2 + q) tr(de)] / rho_mid`` (trapezoidal stress
     work; the bulk viscosity ``q`` acts over the whole step).
     """
-    return e_old + (work_dev - (0.5 * (p_old + p_new) + q) * dv) / rho_mid
+    return e_old + fdiv(work_dev - (0.5 * (p_old + p_new) + q) * dv, rho_mid)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pressure_and_energy(a, b, e_old, work_dev, p_old, q, dv, rho_mid):
     """End-of-step pressure and specific energy for an EOS ``p = a + b e``.
 
@@ -196,11 +186,29 @@ def pressure_and_energy(a, b, e_old, work_dev, p_old, q, dv, rho_mid):
     ``e_new = (e_old + [w_dev - ((p_old + a)/2 + q) dv]/rho_mid) / (1 + b dv/(2 rho_mid))``
     (as LS-DYNA does for EOSs linear in energy), so no lag between p and e remains.
     """
-    den = 1.0 + 0.5 * b * dv / rho_mid
+    den = 1.0 + fdiv(0.5 * b * dv, rho_mid)
     if not den > 0.0:
         return math.nan, math.nan
-    e_new = (e_old + (work_dev - (0.5 * (p_old + a) + q) * dv) / rho_mid) / den
+    e_new = fdiv(e_old + fdiv(work_dev - (0.5 * (p_old + a) + q) * dv, rho_mid), den)
     return a + b * e_new, e_new
+
+
+@njit(cache=True, inline="always")
+def bulk_stiffness(code, k_bulk, eos_type, rho, pressure, rho0, c0, gamma0, dref, opm2):
+    """``K_t`` of :func:`wave_speed` from the EOS parts of
+    :func:`pmpm.materials.eos.eos_at_density` (unused without an EOS)."""
+    k_t = k_bulk
+    if eos_type != EOS_NONE:
+        k_t = max(k_t, rho * eos_tangent_at(eos_type, pressure, rho0, c0, gamma0, dref, opm2))
+    if code == FLUID:
+        k_t = max(k_t, rho * c0 * c0)
+    return k_t
+
+
+@njit(cache=True, inline="always")
+def speed_from_stiffness(k_t, g43, rho):
+    """``sqrt((K_t + 4G/3)/rho)``, ``g43 = 4G/3``."""
+    return math.sqrt(fdiv(max(k_t + g43, 0.0), rho))
 
 
 @njit(cache=True)
@@ -228,15 +236,132 @@ def wave_speed(code, prm, rho, pressure):
     """
     if code == RIGID:
         return 0.0
-    k_t = prm[K]
-    if prm[EOS_TYPE] != EOS_NONE:
-        k_t = max(k_t, rho * eos_tangent(prm, rho, pressure))
-    if code == FLUID:
-        k_t = max(k_t, rho * prm[EOS_C0] * prm[EOS_C0])
-    return math.sqrt(max(k_t + 4.0 / 3.0 * prm[G], 0.0) / rho)
+    eos_type = prm[EOS_TYPE]
+    dref = 0.0
+    opm2 = 1.0
+    if eos_type != EOS_NONE:
+        _, _, dref, opm2 = eos_at_density(eos_type, rho, prm[RHO0], prm[EOS_C0], prm[EOS_S],
+                                          prm[EOS_GAMMA0])
+    k_t = bulk_stiffness(code, prm[K], eos_type, rho, pressure, prm[RHO0], prm[EOS_C0],
+                         prm[EOS_GAMMA0], dref, opm2)
+    return speed_from_stiffness(k_t, 4.0 / 3.0 * prm[G], rho)
 
 
-@njit(cache=True)
+FAILED = (False, False, -1.0, ZERO6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old, temp_old):
+    """One particle's constitutive step on values (the arithmetic of :func:`update_stress`).
+
+    Parameters
+    ----------
+    code : int
+        Model code.
+    prm : tuple of N_SLOTS float
+        The packed material row.
+    dt, h : float
+        Time step, bulk-viscosity length.
+    lg : tuple of 9 float
+        Velocity gradient, row-major.
+    sig_old : tuple of 6 float
+        Stress at the start of the step.
+    f_old : tuple of 9 float
+        Deformation gradient at the start of the step (used by Neo-Hookean only).
+    rho_old, eps_old, e_old, temp_old : float
+        Density, plastic strain, specific energy and temperature at the start of the step.
+
+    Returns
+    -------
+    ok : bool
+        The update succeeded (False for a rigid particle too).
+    plastic : bool
+        The return map ran (then ``eps1`` and ``temp1`` are stored even if not ok).
+    c : float
+        The return value of :func:`update_stress`.
+    s_new : tuple of 6 float
+        Deviatoric stress at the end of the step.
+    p_new, rho_new, e_new, q_new, eps1, temp1 : float
+        Pressure, density, specific energy, bulk viscosity, plastic strain and temperature
+        at the end of the step.
+    """
+    if code == RIGID:
+        return (False, False, 0.0, ZERO6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    d = sym9(lg)
+    div = trace(d)
+    dv = div * dt
+    if not 1.0 + dv > 0.0:
+        return FAILED
+    rho_new = fdiv(rho_old, 1.0 + dv)
+    if not (rho_new > 0.0 and math.isfinite(rho_new)):
+        return FAILED
+    rho_mid = 0.5 * (rho_old + rho_new)
+    g = prm[G]
+    k_bulk = prm[K]
+    p_old = -trace(sig_old) / 3.0
+    de = scale(d, dt)
+
+    # deviatoric part, by model; work_dev = s_avg : de
+    plastic = False
+    converged = True
+    eps1 = eps_old
+    temp1 = temp_old
+    if code == NEO_HOOKEAN:
+        s_new, p_new = neo_hookean_stress(advance_deformation_gradient(f_old, lg, dt), g,
+                                          k_bulk)
+        work_dev = double_dot(scale(add(deviator(sig_old), s_new), 0.5), de)
+    elif code == FLUID:
+        s_new = scale(deviator(d), 2.0 * prm[VISCOSITY])
+        work_dev = double_dot(s_new, de)
+        p_new = p_old - k_bulk * dv
+    else:
+        s_rot = deviator(jaumann_rotate(sig_old, skew9(lg), dt))
+        s_new = add(s_rot, scale(deviator(de), 2.0 * g))
+        if code == J2_PLASTIC or code == JOHNSON_COOK:
+            plastic = True
+            s_new, eps1, temp1, converged = plastic_step(
+                s_new, g, eps_old, temp_old, dt, rho_mid, prm[A], prm[B], prm[N], prm[C],
+                prm[EPS_DOT0], prm[M], prm[T_ROOM], prm[T_MELT], prm[CP], prm[CHI],
+                prm[EPS_FAIL])
+        work_dev = double_dot(scale(add(s_rot, s_new), 0.5), de)
+        p_new = p_old - k_bulk * dv
+
+    # volumetric part: the EOS at the new density once, for pressure and both wave speeds
+    eos_type = prm[EOS_TYPE]
+    has_eos = eos_type != EOS_NONE
+    rho0 = prm[RHO0]
+    c0 = prm[EOS_C0]
+    gamma0 = prm[EOS_GAMMA0]
+    a = b = dref = 0.0
+    opm2 = 1.0
+    if has_eos:
+        a, b, dref, opm2 = eos_at_density(eos_type, rho_new, rho0, c0, prm[EOS_S], gamma0)
+    g43 = 4.0 / 3.0 * g
+    k_old = bulk_stiffness(code, k_bulk, eos_type, rho_new, p_old, rho0, c0, gamma0, dref, opm2)
+    q_new = 0.0
+    if not div >= 0.0:
+        q_new = bulk_viscosity(rho_new, h, speed_from_stiffness(k_old, g43, rho_new), div,
+                               prm[Q_LINEAR], prm[Q_QUADRATIC])
+    if has_eos:
+        p_new, e_new = pressure_and_energy(a, b, e_old, work_dev, p_old, q_new, dv, rho_mid)
+    else:
+        e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dv, rho_mid)
+    if code == FLUID and p_new < -prm[TENSION_CUTOFF]:
+        p_new = -prm[TENSION_CUTOFF]
+        e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dv, rho_mid)
+    k_new = k_old
+    if has_eos:
+        k_new = bulk_stiffness(code, k_bulk, eos_type, rho_new, p_new, rho0, c0, gamma0,
+                               dref, opm2)
+    c = speed_from_stiffness(k_new, g43, rho_new)
+    ok = (converged and all_finite(s_new) and math.isfinite(p_new) and math.isfinite(e_new)
+          and math.isfinite(c))
+    if not ok:
+        c = -1.0
+    return ok, plastic, c, s_new, p_new, rho_new, e_new, q_new, eps1, temp1
+
+
+@njit(cache=True, inline="always")
 def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q):
     """Advance the stress and state of particle ``p`` over one step.
 
@@ -263,6 +388,8 @@ def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q
         The particle's wave speed (:func:`wave_speed`); -1.0 when the update failed
         (non-finite stress, energy or wave speed, non-positive density or Jacobian, or a
         return map that did not converge); 0.0 for a rigid particle, which is not touched.
+        A failed update leaves the particle's columns as they were, except the plastic
+        strain and temperature of a return map that ran.
 
     Notes
     -----
@@ -282,41 +409,43 @@ def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q
     deviator is a rate, so it uses the new one: dissipation is ``2 eta dev(D):dev(D) dt``),
     and ``rho_mid`` the mean of the old and new density. ``q`` (stored, not added to the
     stress) uses the sound speed at the new density and old pressure.
+
+    Inlined into its caller (see the module's notes on speed). Every column is read before
+    and written after :func:`material_step`, outside any branch; a failed update writes
+    back the values it finds, re-read after the first store so that no old value is kept
+    through the update.
     """
-    if code == RIGID:
-        return 0.0
-    d = strain_rate(Lg)
-    dv = trace(d) * dt
-    if not 1.0 + dv > 0.0:
-        return -1.0
+    prm_t = (prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8],
+             prm[9], prm[10], prm[11], prm[12], prm[13], prm[14], prm[15], prm[16],
+             prm[17], prm[18], prm[19], prm[20], prm[21], prm[22], prm[23])
+    lg = (Lg[0, 0], Lg[0, 1], Lg[0, 2], Lg[1, 0], Lg[1, 1], Lg[1, 2],
+          Lg[2, 0], Lg[2, 1], Lg[2, 2])
+    sig_old = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
+               stress[p, 5])
+    f_old = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4], F[p, 5], F[p, 6], F[p, 7],
+             F[p, 8])
     rho_old = rho[p]
-    rho_new = rho_old / (1.0 + dv)
-    if not (rho_new > 0.0 and math.isfinite(rho_new)):
-        return -1.0
-    rho_mid = 0.5 * (rho_old + rho_new)
-    f_new = advance_deformation_gradient(F, p, Lg, dt)
-    sig_old = load_row6(stress, p)
-    p_old = -trace(sig_old) / 3.0
-    s_new, s_work, p_new, converged = deviatoric_update(p, code, prm, dt, Lg, f_new, sig_old,
-                                                        p_old, dv, rho_mid, eps_p, temp)
-    q_new = bulk_viscosity(rho_new, h, wave_speed(code, prm, rho_new, p_old), trace(d),
-                           prm[Q_LINEAR], prm[Q_QUADRATIC])
-    work_dev = double_dot(s_work, scale(d, dt))
-    if prm[EOS_TYPE] != EOS_NONE:
-        a, b = eos_pressure_coefficients(prm, rho_new)
-        p_new, e_new = pressure_and_energy(a, b, e_int[p], work_dev, p_old, q_new, dv, rho_mid)
-    else:
-        e_new = energy_known_pressure(e_int[p], work_dev, p_old, p_new, q_new, dv, rho_mid)
-    if code == FLUID and p_new < -prm[TENSION_CUTOFF]:
-        p_new = -prm[TENSION_CUTOFF]
-        e_new = energy_known_pressure(e_int[p], work_dev, p_old, p_new, q_new, dv, rho_mid)
-    c = wave_speed(code, prm, rho_new, p_new)
-    if not (converged and all_finite(s_new) and math.isfinite(p_new)
-            and math.isfinite(e_new) and math.isfinite(c)):
-        return -1.0
-    store_stress(stress, p, s_new, p_new)
-    store_row9(F, p, f_new)
-    rho[p] = rho_new
-    e_int[p] = e_new
-    q[p] = q_new
+    ok, plastic, c, s, p_new, rho_new, e_new, q_new, eps1, temp1 = material_step(
+        code, prm_t, dt, h, lg, sig_old, f_old, rho_old, eps_p[p], e_int[p], temp[p])
+
+    rho[p] = rho_new if ok else rho_old
+    # re-read after a store: not merged with the reads above, so not kept through the update
+    sig_now = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
+               stress[p, 5])
+    sig = (s[0] - p_new, s[1] - p_new, s[2] - p_new, s[3], s[4], s[5]) if ok else sig_now
+    stress[p, 0], stress[p, 1], stress[p, 2] = sig[0], sig[1], sig[2]
+    stress[p, 3], stress[p, 4], stress[p, 5] = sig[3], sig[4], sig[5]
+    f_now = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4], F[p, 5], F[p, 6], F[p, 7],
+             F[p, 8])
+    lg_now = (Lg[0, 0], Lg[0, 1], Lg[0, 2], Lg[1, 0], Lg[1, 1], Lg[1, 2],
+              Lg[2, 0], Lg[2, 1], Lg[2, 2])
+    f = advance_deformation_gradient(f_now, lg_now, dt) if ok else f_now
+    F[p, 0], F[p, 1], F[p, 2] = f[0], f[1], f[2]
+    F[p, 3], F[p, 4], F[p, 5] = f[3], f[4], f[5]
+    F[p, 6], F[p, 7], F[p, 8] = f[6], f[7], f[8]
+    e_now, q_now, eps_now, temp_now = e_int[p], q[p], eps_p[p], temp[p]
+    e_int[p] = e_new if ok else e_now
+    q[p] = q_new if ok else q_now
+    eps_p[p] = eps1 if plastic else eps_now
+    temp[p] = temp1 if plastic else temp_now
     return c

@@ -12,13 +12,13 @@ import math
 from numba import njit
 
 from .layout import A, B, C, EPS_DOT0, M, N, T_MELT, T_ROOM
-from .tensors import scale, von_mises
+from .tensors import fdiv, scale, von_mises
 
 MAX_NEWTON = 50
 NEWTON_RTOL = 1e-11
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def hardening(a, b, n, eps):
     """Strain-hardening term ``a + b eps^n``."""
     if eps <= 0.0:
@@ -28,7 +28,7 @@ def hardening(a, b, n, eps):
     return a + b * eps ** n
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def hardening_slope_in_t(b, n, k, dlam, eps):
     """Slope of ``b eps^n`` with respect to ``t``, where ``dlam = t^k`` and ``eps`` is the
     plastic strain after the increment.
@@ -44,7 +44,7 @@ def hardening_slope_in_t(b, n, k, dlam, eps):
     if k != 1.0:
         if eps <= 0.0:
             return b
-        return b * (dlam / eps) ** (1.0 - n)
+        return b * fdiv(dlam, eps) ** (1.0 - n)
     if n == 1.0:
         return b
     if eps <= 0.0:
@@ -52,7 +52,7 @@ def hardening_slope_in_t(b, n, k, dlam, eps):
     return n * b * eps ** (n - 1.0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rate_factor(c, eps_dot0, dlam, dt):
     """Johnson-Cook rate factor ``1 + c ln max(eps_dot_p/eps_dot0, 1)``.
 
@@ -61,13 +61,13 @@ def rate_factor(c, eps_dot0, dlam, dt):
     """
     if c == 0.0 or eps_dot0 <= 0.0 or dt <= 0.0:
         return 1.0
-    ratio = dlam / (dt * eps_dot0)
+    ratio = fdiv(dlam, dt * eps_dot0)
     if ratio <= 1.0:
         return 1.0
     return 1.0 + c * math.log(ratio)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def thermal_factor(m, temp, t_room, t_melt):
     """Johnson-Cook thermal softening ``1 - T*^m``, ``T* = (T - T_room)/(T_melt - T_room)``.
 
@@ -76,11 +76,11 @@ def thermal_factor(m, temp, t_room, t_melt):
     """
     if m == 0.0 or t_melt <= t_room:
         return 1.0
-    t_star = min(max((temp - t_room) / (t_melt - t_room), 0.0), 1.0)
+    t_star = min(max(fdiv(temp - t_room, t_melt - t_room), 0.0), 1.0)
     return 1.0 - t_star ** m
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta):
     """Flow stress after a plastic increment ``dlam`` at the rate ``dlam/dt``.
 
@@ -90,18 +90,18 @@ def flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta):
             * rate_factor(c, eps_dot0, dlam, dt))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def flow_stress_slope_in_t(t, k, eps_p, dt, a, b, n, c, eps_dot0, theta):
     """``d sigma_y / dt`` for ``dlam = t^k`` (see :func:`plastic_multiplier`)."""
     dlam = t ** k
     eps = eps_p + dlam
     rate = rate_factor(c, eps_dot0, dlam, dt)
-    drate = c * k / t if rate > 1.0 else 0.0          # d(c ln(t^k / (dt eps_dot0)))/dt
+    drate = fdiv(c * k, t) if rate > 1.0 else 0.0     # d(c ln(t^k / (dt eps_dot0)))/dt
     return theta * (hardening_slope_in_t(b, n, k, dlam, eps) * rate
                     + hardening(a, b, n, eps) * drate)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     """Equivalent plastic strain increment of a radial return.
 
@@ -142,21 +142,41 @@ def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     ``|r| <= NEWTON_RTOL q_trial`` or when the bracket has shrunk to round-off.
     """
     tol = NEWTON_RTOL * q_trial
-    sy0 = flow_stress(0.0, eps_p, dt, a, b, n, c, eps_dot0, theta)
+    sy0 = theta * hardening(a, b, n, eps_p)            # flow_stress at dlam = 0
     if q_trial - sy0 <= tol:
         return 0.0, sy0, True
     if c == 0.0 and (n == 1.0 or b == 0.0):
         slope = theta * b if n == 1.0 else 0.0
-        dlam = (q_trial - sy0) / (3.0 * g + slope)
+        dlam = fdiv(q_trial - sy0, 3.0 * g + slope)
         return dlam, sy0 + slope * dlam, dlam >= 0.0
-    k = 1.0 / n if 0.0 < n < 1.0 else 1.0
+    return newton_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta, sy0, tol)
+
+
+@njit(cache=True, inline="always")
+def newton_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta, sy0, tol):
+    """The safeguarded Newton iteration of :func:`plastic_multiplier`, for a step that yields
+    (``q_trial - sy0 > tol``).
+
+    Notes
+    -----
+    Per iterate, ``dlam = t^k``, the hardening and the rate factor are evaluated once and
+    shared by the residual and its slope; with ``k = 1`` (``n >= 1``), ``t^k = t`` and
+    ``t^(k-1) = 1`` exactly, so no power is taken for them.
+    """
+    k = fdiv(1.0, n) if 0.0 < n < 1.0 else 1.0
+    unit = k == 1.0
     lo = 0.0
-    hi = ((q_trial - sy0) / (3.0 * g)) ** (1.0 / k)
+    hi = fdiv(q_trial - sy0, 3.0 * g)
+    if not unit:
+        hi = hi ** fdiv(1.0, k)
     t = hi
     step = step_before = hi
     for _ in range(MAX_NEWTON):
-        dlam = t ** k
-        sy = flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta)
+        dlam = t if unit else t ** k
+        eps = eps_p + dlam
+        hard = hardening(a, b, n, eps)
+        rate = rate_factor(c, eps_dot0, dlam, dt)
+        sy = theta * hard * rate
         r = q_trial - 3.0 * g * dlam - sy
         if abs(r) <= tol:
             return dlam, sy, True
@@ -166,24 +186,26 @@ def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
             hi = t
         if hi - lo <= 4e-16 * hi:                       # root pinned to round-off
             return dlam, sy, True
-        slope = (3.0 * g * k * t ** (k - 1.0)
-                 + flow_stress_slope_in_t(t, k, eps_p, dt, a, b, n, c, eps_dot0, theta))
-        newton = r / slope if slope > 0.0 else hi - lo
+        drate = fdiv(c * k, t) if rate > 1.0 else 0.0  # d(c ln(t^k / (dt eps_dot0)))/dt
+        sy_slope = theta * (hardening_slope_in_t(b, n, k, dlam, eps) * rate + hard * drate)
+        slope = 3.0 * g * k * (1.0 if unit else t ** (k - 1.0)) + sy_slope
+        newton = fdiv(r, slope) if slope > 0.0 else hi - lo
         step_before, step = step, newton
         if not lo < t + newton < hi or abs(2.0 * newton) > abs(step_before):
             step = 0.5 * (hi - lo)                      # too slow or outside: bisect
             t = lo + step
         else:
             t += newton
-    return t ** k, flow_stress(t ** k, eps_p, dt, a, b, n, c, eps_dot0, theta), False
+    dlam = t if unit else t ** k
+    return dlam, flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta), False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def radial_return(s_trial, q_trial, sigma_y):
     """Scale the trial deviator back onto the yield surface: ``s = s_trial sigma_y/q_trial``."""
     if q_trial <= sigma_y:
         return s_trial
-    return scale(s_trial, sigma_y / q_trial)
+    return scale(s_trial, fdiv(sigma_y, q_trial))
 
 
 @njit(cache=True)

@@ -3,14 +3,35 @@
 A symmetric tensor is a tuple ``(t_xx, t_yy, t_zz, t_xy, t_yz, t_zx)`` of float64 with
 *tensor* (not engineering) shear components, the storage order of ``stress`` (see
 docs/CONTRACTS.md). Tuples live in registers, so these helpers allocate nothing, which
-keeps the per-particle path of the fused stress kernel free of heap traffic.
+keeps the per-particle path of the fused stress kernel free of heap traffic. Every helper
+is inlined into its caller at Numba IR level (``inline="always"``): a 6-tuple passed to or
+returned from a separately compiled function goes through memory, an inlined one stays in
+registers.
 """
 import math
 
+import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def fdiv(a, b):
+    """IEEE quotient ``a / b`` of two floats: inf or NaN for ``b == 0``, never an exception.
+
+    Notes
+    -----
+    Under Numba's default (Python) error model ``/`` tests the divisor and raises
+    ZeroDivisionError. Such raise paths inside a loop keep Numba's reference counting of
+    the arrays live across them (two atomic operations per array and iteration) in the
+    compiled loop, e.g. the fused particle loop that inlines the stress update. Every
+    division of the per-particle path uses this instead; a zero divisor then gives a
+    non-finite result, which :func:`pmpm.materials.kernels.update_stress` reports as a
+    failed update. Same rounding as ``/``.
+    """
+    return np.divide(a, b)
+
+
+@njit(cache=True, inline="always")
 def strain_rate(Lg):
     """Rate of deformation D = sym(Lg) as a Voigt 6-tuple.
 
@@ -30,7 +51,7 @@ def strain_rate(Lg):
             0.5 * (Lg[2, 0] + Lg[0, 2]))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def spin(Lg):
     """Independent components of the spin W = skew(Lg).
 
@@ -45,32 +66,49 @@ def spin(Lg):
             0.5 * (Lg[2, 0] - Lg[0, 2]))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def sym9(l):
+    """:func:`strain_rate` of a velocity gradient given as a row-major 9-tuple."""
+    return (l[0], l[4], l[8],
+            0.5 * (l[1] + l[3]),
+            0.5 * (l[5] + l[7]),
+            0.5 * (l[6] + l[2]))
+
+
+@njit(cache=True, inline="always")
+def skew9(l):
+    """:func:`spin` of a velocity gradient given as a row-major 9-tuple."""
+    return (0.5 * (l[1] - l[3]),
+            0.5 * (l[5] - l[7]),
+            0.5 * (l[6] - l[2]))
+
+
+@njit(cache=True, inline="always")
 def trace(t):
     """Trace of a Voigt 6-tuple."""
     return t[0] + t[1] + t[2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def deviator(t):
     """Deviatoric part ``t - tr(t)/3 I`` of a Voigt 6-tuple."""
     m = (t[0] + t[1] + t[2]) / 3.0
     return (t[0] - m, t[1] - m, t[2] - m, t[3], t[4], t[5])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def scale(t, a):
     """``a * t`` for a Voigt 6-tuple ``t`` and a scalar ``a``."""
     return (a * t[0], a * t[1], a * t[2], a * t[3], a * t[4], a * t[5])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add(a, b):
     """Sum of two Voigt 6-tuples."""
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def double_dot(a, b):
     """Full contraction ``a : b = a_ij b_ij`` of two symmetric tensors.
 
@@ -82,20 +120,20 @@ def double_dot(a, b):
             + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5]))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def von_mises(s):
     """Von Mises equivalent stress ``sqrt(3/2 s:s)`` of a deviator ``s``."""
     return math.sqrt(1.5 * double_dot(s, s))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def all_finite(t):
     """True when every component of a Voigt 6-tuple is finite."""
     return (math.isfinite(t[0]) and math.isfinite(t[1]) and math.isfinite(t[2])
             and math.isfinite(t[3]) and math.isfinite(t[4]) and math.isfinite(t[5]))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def jaumann_rotate(sig, w, dt):
     """Rotate a stress with the spin over one step: ``sig + (W sig - sig W) dt``.
 
@@ -134,13 +172,13 @@ def jaumann_rotate(sig, w, dt):
             sxy + rxy * dt, syz + ryz * dt, szx + rzx * dt)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def load_row6(a, p):
     """Row ``p`` of an (n, 6) array as a 6-tuple."""
     return (a[p, 0], a[p, 1], a[p, 2], a[p, 3], a[p, 4], a[p, 5])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def store_stress(stress, p, s, pressure):
     """Write ``s - pressure I`` (deviator ``s``, pressure positive in compression) to row p."""
     stress[p, 0] = s[0] - pressure
