@@ -35,7 +35,7 @@ def sum_shared_planes(world, planes, block):
         block[index] += incoming
 
 
-def migrate(world, destination, columns, check=True):
+def migrate(world, destination, columns, check=True, replace=None):
     """Send every particle to the rank ``destination[p]`` with one Alltoallv per column.
 
     Parameters
@@ -46,6 +46,10 @@ def migrate(world, destination, columns, check=True):
     check : bool
         First agree (one reduction) whether any particle moves at all; pass False when
         the caller already knows some does.
+    replace : callable(name, array), optional
+        Called with each column as soon as it has arrived (and the column is dropped from
+        ``columns``), so the caller can free the old column before the next one is sent:
+        the extra memory is then one column, not the whole store. Returns None then.
 
     Returns
     -------
@@ -59,8 +63,14 @@ def migrate(world, destination, columns, check=True):
     send_counts = np.bincount(destination, minlength=world.size).astype(np.int64)
     recv_counts = np.empty_like(send_counts)
     world.raw.Alltoall(send_counts, recv_counts)
-    return {name: _alltoallv(world, col[order], send_counts, recv_counts)
-            for name, col in columns.items()}
+    if replace is None:
+        return {name: _alltoallv(world, col[order], send_counts, recv_counts)
+                for name, col in columns.items()}
+    for name in list(columns):
+        column = columns.pop(name)
+        replace(name, _alltoallv(world, column[order], send_counts, recv_counts))
+        del column
+    return None
 
 
 def _alltoallv(world, sendbuf, send_counts, recv_counts):

@@ -61,8 +61,14 @@ class Particles:
         return {name: getattr(self, name) for name in COLUMNS}
 
     def take(self, index):
-        """Keep only the particles ``index`` (bool mask or integer array), in that order."""
-        self.set_columns({name: col[index] for name, col in self.columns().items()})
+        """Keep only the particles ``index`` (bool mask or integer array), in that order.
+        One column at a time, so the extra memory is one column, not the whole store."""
+        for name in COLUMNS:
+            setattr(self, name, np.ascontiguousarray(getattr(self, name)[index]))
+
+    def replace_column(self, name, values):
+        dtype, _ = COLUMNS[name]
+        setattr(self, name, np.ascontiguousarray(values, dtype=dtype))
 
     def append(self, other_columns):
         self.set_columns({name: np.concatenate([getattr(self, name), other_columns[name]])

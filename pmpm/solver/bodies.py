@@ -45,7 +45,10 @@ def build_particles(case, table, filled, keep):
         cols["id"][:] = offset + np.flatnonzero(mine)
         parts.append(cols)
         offset += len(volumes)
-    return Particles({name: np.concatenate([p[name] for p in parts]) for name in COLUMNS})
+    columns = {}
+    for name in COLUMNS:         # column by column, freeing each body's part as we go
+        columns[name] = np.concatenate([part.pop(name) for part in parts])
+    return Particles(columns)
 
 
 def _body_columns(index, body, table, positions, volumes):

@@ -124,16 +124,14 @@ class Stepper:
             p.take(owner >= 0)
             owner = owner[owner >= 0]
         if glob[8] > 0:
-            p.set_columns(migrate(self.world, owner, p.columns(), check=False))
+            migrate(self.world, owner, p.columns(), check=False, replace=p.replace_column)
 
     # -- helpers ----------------------------------------------------------------
     def send_to_owners(self, slabs):
         p = self.particles
         cells = self.grid.cells_of(p.x)[:, slabs.axis] if p.n else np.zeros(0, np.int64)
         owners = slabs.owner_of_cells(cells).astype(np.int64)
-        moved = migrate(self.world, owners, p.columns())
-        if moved is not None:
-            p.set_columns(moved)
+        migrate(self.world, owners, p.columns(), replace=p.replace_column)
 
     def global_cell_range(self):
         """Lowest and highest coarse cell holding a particle on any rank."""
