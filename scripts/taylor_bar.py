@@ -21,7 +21,12 @@ def main():
     parser.add_argument("--ranks", type=int, default=2)
     parser.add_argument("--fine", action="store_true", help="also run 0.19 mm (1.34 M particles)")
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "validation"))
+    parser.add_argument("--plot-only", action="store_true", help="re-plot saved results")
     args = parser.parse_args()
+    if args.plot_only:
+        import json
+        with open(os.path.join(args.out, "taylor_bar.json"), encoding="utf-8") as f:
+            return plot(os.path.join(args.out, "taylor_bar.png"), json.load(f), args.out)
     cells = [0.76, 0.38] + ([0.19] if args.fine else [])
     rows = [measure(cell, args) for cell in cells]
     save_json(os.path.join(args.out, "taylor_bar.json"), rows)
@@ -72,12 +77,11 @@ def plot(path, rows, out_dir):
     fig, axes = plt.subplots(1, len(rows), figsize=(4 * len(rows), 6), squeeze=False)
     for ax, row in zip(axes[0], rows):
         x = read_frame(os.path.join(out_dir, f"taylor_{row['cell']}"))
-        r = np.hypot(x["x"][:, 0], x["x"][:, 1]) * np.sign(x["x"][:, 0] + 1e-12)
-        thin = np.abs(x["x"][:, 1]) < 0.3 * row["cell"]
-        sc = ax.scatter(r[thin], x["x"][thin, 2], c=x["eps_p"][thin], s=2, cmap="viridis")
+        r = np.hypot(x["x"][:, 0], x["x"][:, 1])          # every particle: radius vs height
+        sc = ax.scatter(r, x["x"][:, 2], c=x["eps_p"], s=1, cmap="viridis")
         ax.set_title(f"cell {row['cell']} mm: L {row['L']:.2f}, D {row['D']:.2f}")
         ax.set_aspect("equal")
-        ax.set_xlabel("x (mm)")
+        ax.set_xlabel("r (mm)")
         ax.set_ylabel("z (mm)")
         fig.colorbar(sc, ax=ax, label="eps_p")
     fig.tight_layout()

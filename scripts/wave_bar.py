@@ -11,11 +11,10 @@ Usage: .venv/bin/python scripts/wave_bar.py [--ranks 2] [--width MM]
 import argparse
 import os
 
-import h5py
 import numpy as np
 from _common import ROOT, run_case, save_json
 
-from pmpm.post import rms_error, wave_bar_stress
+from pmpm.post import axial_profiles, rms_error, wave_bar_stress
 
 C = np.sqrt(1.0e5 / 5.0e-3)
 LOAD = -2.5 / 36.0
@@ -43,17 +42,7 @@ def main():
 
 
 def read_profiles(out):
-    result = {}
-    with h5py.File(os.path.join(out, "particles.h5"), "r") as f:
-        for name in f["frames"]:
-            group = f["frames"][name]
-            t = float(group.attrs["time"])
-            for target in TIMES:
-                if abs(t - target) < 1e-9:
-                    x, s = group["x"][:, 0], group["stress"][:, 0]
-                    order = np.argsort(x)
-                    result[target] = (x[order], s[order])
-    return result
+    return axial_profiles(out, TIMES)
 
 
 def row(cell, width, summary, prof):

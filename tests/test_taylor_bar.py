@@ -2,10 +2,10 @@
 and foot diameter against Table 3's MPM row, energy conservation, 1 rank == 2 ranks.
 
 L and D are measured from particle centres (pmpm.post.taylor_length_and_diameter). pmpm
-gives L = 16.25 mm (Table 3: 16.39, -0.8 %) and D = 13.1 mm (Table 3: 12.68, +3.4 %;
-the experiment: 13.5). D misses the 2 % the issue asks for; the tolerance below is 4 %,
-about half a particle spacing (0.19 mm) more than 2 %, and the note on the issue says so.
-At 0.38 mm pmpm's D is 13.37 (Table 3: 13.14, +1.7 %).
+gives L = 16.24 mm (Table 3: 16.39, -0.9 %) and D = 13.00 mm (Table 3: 12.68, +2.5 %;
+the experiment: 13.5). D misses the 2 % the issue asks for by half a percent; the
+tolerance below is 3 % and the note on the issue says so. At 0.38 mm pmpm gives
+L = 16.25 (16.29) and D = 13.26 (13.14, +0.9 %): scripts/taylor_bar.py.
 """
 import os
 
@@ -35,7 +35,7 @@ def test_final_length_and_foot_diameter_match_table_3(one_rank):
     assert frame["time"] == pytest.approx(0.08)
     length, diameter = taylor_length_and_diameter(frame["x"])
     assert length == pytest.approx(PAPER_L, rel=0.02)
-    assert diameter == pytest.approx(PAPER_D, rel=0.04)
+    assert diameter == pytest.approx(PAPER_D, rel=0.03)
 
 
 def test_energy_is_conserved(one_rank):

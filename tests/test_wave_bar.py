@@ -2,11 +2,10 @@
 and 41.6 us; coarse cells (1 and 0.5 mm) on a bar two cells wide (slip faces: 1D)."""
 import os
 
-import h5py
 import numpy as np
 import pytest
 
-from pmpm.post import rms_error, wave_bar_stress
+from pmpm.post import axial_profiles, rms_error, wave_bar_stress
 from runhelp import RUNS, run_pmpm
 
 CASE = os.path.join(RUNS, "wave_bar.yaml")
@@ -17,16 +16,7 @@ TIMES = (0.0076, 0.0156, 0.0416)
 
 def profiles(out):
     """{time: (x, sigma_xx)} sorted along the bar, for the three comparison times."""
-    result = {}
-    with h5py.File(os.path.join(out, "particles.h5"), "r") as f:
-        for name in f["frames"]:
-            group = f["frames"][name]
-            t = float(group.attrs["time"])
-            for target in TIMES:
-                if abs(t - target) < 1e-9:
-                    x, s = group["x"][:, 0], group["stress"][:, 0]
-                    order = np.argsort(x, kind="stable")
-                    result[target] = (x[order], s[order])
+    result = axial_profiles(out, TIMES)
     assert sorted(result) == list(TIMES)
     return result
 

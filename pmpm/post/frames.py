@@ -26,3 +26,18 @@ def read_frame(out_dir, index=-1):
 def read_summary(out_dir):
     with open(os.path.join(out_dir, "summary.json"), encoding="utf-8") as f:
         return json.load(f)
+
+
+def axial_profiles(out_dir, times, axis=0, tol=1e-9):
+    """{time: (x_axis, sigma_axis)} sorted along ``axis`` for the frames at ``times``."""
+    result = {}
+    with h5py.File(os.path.join(out_dir, "particles.h5"), "r") as f:
+        for name in f["frames"]:
+            group = f["frames"][name]
+            t = float(group.attrs["time"])
+            for target in times:
+                if abs(t - target) < tol:
+                    x, s = group["x"][:, axis], group["stress"][:, axis]
+                    order = np.argsort(x, kind="stable")
+                    result[target] = (x[order], s[order])
+    return result
