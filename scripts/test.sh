@@ -9,6 +9,6 @@ export OMPI_MCA_rmaps_base_oversubscribe=1 PRTE_MCA_rmaps_default_mapping_policy
 export NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1
 PY=.venv/bin/python
 echo "== serial tests"
-$PY -m pytest -q "$@" tests
+$PY -m pytest -q --color=no "$@" tests
 echo "== MPI tests on 2 ranks"
-mpirun -n 2 --oversubscribe $PY -m pytest -q --with-mpi -m mpi -p no:cacheprovider "$@" tests
+mpirun -n 2 --oversubscribe $PY -m pytest -q --color=no --with-mpi -m mpi -p no:cacheprovider "$@" tests
