@@ -51,10 +51,12 @@ class Stepper:
         self.fastest = 0.0
         self.lost = 0
         self.block = None
+        self.fault = None
         self.cell_range = self.global_cell_range()
 
     # -- the step ---------------------------------------------------------------
     def step(self, dt):
+        self.fault = None
         self.build_block()
         self.map_particles_to_grid()
         self.nodal_velocities_with_boundaries()
@@ -88,8 +90,8 @@ class Stepper:
             p.load, p.load_scale, self.bodies.codes, self.bodies.params, self.bodies.rigid,
             dt, g.h, self.gravity, self.load_vec, g.origin, 1.0 / g.h, b.lo, b.strides,
             self.gvel, self.force)
-        self.raise_if_any(bad, "constitutive update failed (NaN, non-convergence or "
-                               "non-positive density)")
+        self.note_fault(bad, "constitutive update failed (NaN, non-convergence or "
+                             "non-positive density)")
         sum_shared_planes(self.world, b.shared_planes, b.as_planes(self.force))
 
     def integrate_nodal_momentum(self, dt):
@@ -102,7 +104,7 @@ class Stepper:
         p, b, g = self.particles, self.block, self.grid
         bad = mpm.grid_to_particles(p.x, p.v, p.body, self.bodies.rigid, dt, g.origin,
                                     1.0 / g.h, b.lo, b.strides, self.gnew)
-        self.raise_if_any(bad, "position is not finite")
+        self.note_fault(bad, "position is not finite")
 
     def migrate_and_check(self):
         """Drop particles that left the grid box, send the rest to their slab owners, and
@@ -110,13 +112,16 @@ class Stepper:
         Alltoallv only when some particle changes rank."""
         p, g, slabs = self.particles, self.grid, self.slabs
         owner = np.empty(p.n, np.int64)
-        local = np.empty(9)
+        local = np.empty(10)
         outside = mpm.classify_particles(p.x, g.origin, 1.0 / g.h, g.n_cells, slabs.axis,
                                          slabs.bounds, owner, local[:6])
         local[6] = self.fastest
         local[7] = float(outside)
         local[8] = float(np.count_nonzero((owner != self.world.rank) & (owner >= 0)))
+        local[9] = 1.0 if self.fault else 0.0
         glob = self.world.max(local)
+        if glob[9] > 0:
+            raise SolverError(self.world.first_message(self.fault))
         self.fastest = glob[6]
         self.cell_range = _cell_range(glob[:6])
         if glob[7] > 0:
@@ -142,15 +147,14 @@ class Stepper:
             local[:3], local[3:] = -cells.min(axis=0), cells.max(axis=0)
         return _cell_range(self.world.max(local))
 
-    def raise_if_any(self, bad, what):
-        """Collective: if any rank has a bad particle, every rank raises the same error."""
-        message = None
-        if bad >= 0:
+    def note_fault(self, bad, what):
+        """Remember this rank's first bad particle of the step; the end-of-step reduction
+        tells every rank, and every rank then raises the same error (no extra collective
+        per phase)."""
+        if bad >= 0 and self.fault is None:
             p = self.particles
-            message = (f"particle id {int(p.id[bad])} of body "
-                       f"'{self.bodies.names[int(p.body[bad])]}': {what}")
-        if self.world.any(message is not None):
-            raise SolverError(self.world.first_message(message))
+            self.fault = (f"particle id {int(p.id[bad])} of body "
+                          f"'{self.bodies.names[int(p.body[bad])]}': {what}")
 
     def rebalance(self, threshold):
         """Move slab planes when max/mean particle count - 1 exceeds ``threshold``.
