@@ -6,6 +6,7 @@ from pmpm.grid import LocalBlock, FIXED, SLIP
 from pmpm.comm.slabs import Slabs
 from pmpm.kernels import mpm
 from pmpm.kernels.shape import trilinear
+from pmpm.materials.catalog import pack
 from numba import njit
 
 
@@ -65,22 +66,28 @@ def test_fixed_and_slip_faces_constrain_nodal_velocity():
 
 
 def test_internal_forces_of_uniform_stress_cancel_inside():
-    """A uniform stress gives zero net nodal force on interior nodes and a total of zero."""
+    """A uniform stress gives zero net nodal force on interior nodes and a total of zero
+    (elastic body at rest: the stress update leaves the stress as it is)."""
     d = 0.5
     axes = [np.arange(d / 2, 4.0, d)] * 3
     x = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     n = len(x)
     b = block()
+    code, row = pack({"model": "elastic", "rho": 1.0, "E": 1e3, "nu": 0.25})
     stress = np.tile([100.0, 50.0, 20.0, 10.0, 5.0, 2.0], (n, 1))
+    F = np.tile(np.eye(3).ravel(), (n, 1))
+    zeros = [np.zeros(n) for _ in range(4)]                  # eps_p, e_int, temp, q
     force = np.zeros((b.n_nodes, 3))
-    for p in range(n):
-        nodes, w, gx, gy, gz = _shape_of(x, p, np.zeros(3), 1.0, b.lo, b.strides)
-        mpm.scatter_force(p, nodes, w, gx, gy, gz, np.full(n, d ** 3), np.ones(n), stress,
-                          np.zeros(n), np.zeros(3), np.full(n, -1, np.int32), np.zeros(n),
-                          np.zeros((1, 3)), force)
+    mpm.stress_and_forces(
+        x, np.zeros((n, 3)), np.full(n, d ** 3), np.ones(n), stress, F, *zeros,
+        np.zeros(n, np.int32), np.full(n, -1, np.int32), np.zeros(n),
+        np.array([code]), row[None, :], np.zeros(1, np.bool_), 1e-6, 1.0, np.zeros(3),
+        np.zeros((1, 3)), np.zeros(3), 1.0, b.lo, b.strides, np.zeros((b.n_nodes, 3)), force)
+    assert np.all(stress == [100.0, 50.0, 20.0, 10.0, 5.0, 2.0])
     assert np.abs(force.sum(axis=0)).max() < 1e-10
     interior = force.reshape(5, 5, 5, 3)[1:-1, 1:-1, 1:-1]
     assert np.abs(interior).max() < 1e-10
+    assert np.abs(force).max() > 1.0                          # the boundary nodes carry it
 
 
 def test_slab_blocks_share_planes_with_neighbours():

@@ -8,15 +8,17 @@ Secs. 4.3-4.4. Every tolerance is stated next to its assertion with the reason f
 """
 import itertools
 import math
+import re
 
 import numpy as np
 import pytest
+from numba import njit
 
 from pmpm.materials import catalog
 from pmpm.materials import layout as L
 from pmpm.materials.eos import bulk_viscosity, mie_gruneisen_pressure, mie_gruneisen_tangent
-from pmpm.materials.kernels import update_stress
-from pmpm.materials.plasticity import flow_stress, plastic_multiplier
+from pmpm.materials.kernels import update_stress, wave_speed
+from pmpm.materials.plasticity import flow_stress, plastic_increment, plastic_multiplier
 from pmpm.materials.tensors import jaumann_rotate, spin, strain_rate
 
 COPPER = dict(density=8.93e-3, E=117e3, nu=0.35)
@@ -530,9 +532,63 @@ def test_failed_update_returns_minus_one():
     assert p.step(pure_shear(4.0), 0.5) == -1.0   # det(I + Lg dt) = -3
 
 
+def test_failed_update_leaves_the_particle_as_it_was():
+    """A failure past the kinematics (here a Jacobian <= 0) writes back what it read."""
+    p = Particle(material("neo_hookean", RING), stress=[1, 2, 3, 4, 5, 6])
+    before = p.save()
+    assert p.step(pure_shear(4.0), 0.5) == -1.0
+    for a, b in zip(p.columns(), before):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_rigid_untouched():
     p = Particle(material("rigid", dict(density=7.85e-3)), stress=[1, 2, 3, 4, 5, 6])
     before = p.save()
     assert p.step(diag(-1.0, 2.0, 0.5), 1e-3) == 0.0
     for a, b in zip(p.columns(), before):
         np.testing.assert_array_equal(a, b)
+
+
+# ---------------------------------------------------------------- speed-related forms
+
+def test_closed_form_return_factor():
+    """The kernel's one-division form of sigma_y / q_trial for linear hardening."""
+    G, eps_dot0 = 43333.0, 1e-3
+    for A, B, eps_p, theta, excess in itertools.product(
+            (157.0, 600.0), (0.0, 425.0, 1e4), (0.0, 0.3), (1.0, 0.7), (1e-9, 1e-3, 1.0)):
+        q_trial = theta * (A + B * eps_p) * (1 + excess)
+        dlam, sy, ratio, ok = plastic_increment(q_trial, G, eps_p, 1e-4, A, B, 1.0, 0.0,
+                                                eps_dot0, theta)
+        assert ok and (dlam, sy) == plastic_multiplier(q_trial, G, eps_p, 1e-4, A, B, 1.0,
+                                                       0.0, eps_dot0, theta)[:2]
+        np.testing.assert_allclose(ratio, sy / q_trial, rtol=4e-16)     # round-off
+
+
+@pytest.mark.parametrize("mat", [material("elastic", COPPER),
+                                 material("johnson_cook", COPPER, A=157.0, B=425.0, n=1.0,
+                                          eos=dict(type="mie_gruneisen", c0=3940.0, s=1.49,
+                                                   gamma0=1.96)),
+                                 material("fluid", WATER, eos=dict(type="linear", c0=50.0))])
+def test_returned_wave_speed_is_wave_speed(mat):
+    p = Particle(mat)
+    c = p.step(diag(-20.0, -10.0, -5.0), 1e-4, 0.76)
+    assert c == wave_speed(p.code, p.prm, p.rho[0], p.pressure)      # same arithmetic
+
+
+def test_update_stress_is_one_function_without_heap_or_reference_counting():
+    """No allocation, no call but math, no NRT reference counting of the columns: what
+    keeps the update cheap inside the fused particle loop (see kernels.py, Speed)."""
+    fresh = njit(cache=False)(update_stress.py_func)         # cached code cannot be inspected
+    p = Particle(material("elastic", COPPER))
+    fresh(0, p.code, p.prm, 1e-6, 1.0, diag(1.0, 0, 0), *p.columns())
+    ir = fresh.inspect_llvm(fresh.signatures[0])
+    head = next(line for line in ir.splitlines()
+                if line.startswith("define") and "update_stress" in line
+                and "cpython" not in line and "cfunc" not in line)
+    body = ir[ir.index(head):]
+    body = body[:body.index("\n}\n")]
+    called = set(re.findall(r"call [^(]*@([A-Za-z_.0-9]+)", body))
+    assert "NRT_MemInfo_alloc" not in ir and "NRT_MemInfo_alloc_aligned" not in ir
+    assert not called & {"NRT_incref", "NRT_decref"}, called
+    assert all(name.startswith("llvm.") or name in ("sqrt", "pow", "log") for name in called), \
+        called

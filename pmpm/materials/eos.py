@@ -100,23 +100,26 @@ def eos_at_density(eos_type, rho, rho0, c0, s, gamma0):
     Returns
     -------
     a, b : float
-        Pressure ``p = a + b * e_int`` (as :func:`eos_pressure_coefficients`).
-    dref, opm2 : float
-        The isentropic slope at pressure ``P`` is
-        ``(dref + gamma0 * P / opm2) / rho0`` for Mie-Grueneisen
-        (:func:`eos_tangent_at`), ``c0^2`` for the linear EOS.
+        Pressure ``p = a + b * e_int``, the same arithmetic, operation for operation, as
+        :func:`eos_pressure_coefficients`.
+    kt0, kt1 : float
+        ``rho dp/drho = kt0 + kt1 * P`` at pressure ``P`` (the bulk stiffness of the wave
+        speed): for Mie-Grueneisen ``kt0 = (rho/rho0) dp_ref/dmu`` and
+        ``kt1 = gamma0 rho0/rho``, i.e. ``rho`` times :func:`mie_gruneisen_tangent`
+        regrouped (equal up to round-off); for the linear EOS ``kt0 = rho c0^2``, ``kt1 = 0``.
 
     Notes
     -----
-    The same arithmetic, operation for operation, as :func:`mie_gruneisen_reference` and
-    :func:`mie_gruneisen_tangent`, sharing what the two have in common (``mu``,
-    ``1 - (s-1) mu``, ``mu (1 + mu) - gamma0 mu^2/2``), so the stress kernel evaluates the
-    Hugoniot once per step for the pressure and both wave speeds.
+    Shares what the pressure and the tangent have in common (``mu``, ``1 - (s-1) mu``,
+    ``mu (1 + mu) - gamma0 mu^2/2``), so the stress kernel evaluates the Hugoniot once per
+    step for the pressure and both wave speeds; the stiffness is linear in ``P``, so the
+    end-of-step wave speed is a short chain after the pressure (no division).
     """
-    mu = fdiv(rho, rho0) - 1.0
+    r = fdiv(rho, rho0)
+    mu = r - 1.0
     rc2 = rho0 * c0 * c0
     if eos_type != EOS_MIE_GRUNEISEN:
-        return rc2 * mu, 0.0, 0.0, 1.0
+        return rc2 * mu, 0.0, rho * (c0 * c0), 0.0
     if mu <= 0.0:
         a = rc2 * mu
         dref = rc2
@@ -132,18 +135,7 @@ def eos_at_density(eos_type, rho, rho0, c0, s, gamma0):
             dg = -2.0 * (s - 1.0) * lin
             a = fdiv(rc2 * f, g)
             dref = fdiv(rc2 * (df * g - f * dg), g * g)
-    return a, gamma0 * rho0, dref, (1.0 + mu) * (1.0 + mu)
-
-
-@njit(cache=True, inline="always")
-def eos_tangent_at(eos_type, pressure, rho0, c0, gamma0, dref, opm2):
-    """Isentropic ``dp/drho`` at ``pressure`` from the parts :func:`eos_at_density` returns
-    (equal to :func:`eos_tangent`)."""
-    if eos_type == EOS_MIE_GRUNEISEN:
-        return fdiv(dref + fdiv(gamma0 * pressure, opm2), rho0)
-    if eos_type == EOS_LINEAR:
-        return c0 * c0
-    return 0.0
+    return a, gamma0 * rho0, r * dref, fdiv(gamma0, r)
 
 
 @njit(cache=True)

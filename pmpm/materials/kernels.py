@@ -27,20 +27,29 @@ whole update at once. Inside, the arrays are read first and written last, outsid
 branch, and every division goes through :func:`pmpm.materials.tensors.fdiv`: an array
 touched in a branch, or a ZeroDivisionError path, keeps Numba's reference counting of
 the arrays alive in the compiled loop (atomic operations on every particle). The update
-itself (:func:`material_step`) works on values only. With an EOS, the Hugoniot at the new
-density is evaluated once and serves the pressure and both wave speeds. Linear hardening
-without rate term (the Taylor bar's copper) is a closed form: one square root.
+itself (:func:`material_step`) works on values only; it is bound by its chain of
+dependent divisions and square roots more than by its arithmetic, so:
+
+* with an EOS, the Hugoniot at the new density is evaluated once and serves the pressure
+  and both wave speeds, the stiffness ``rho dp/drho`` is written ``kt0 + kt1 P`` and the
+  energy solve and wave speed multiply by ``1/den`` and ``1/rho`` taken off the chain;
+* linear hardening without rate term (the Taylor bar's copper) is a closed form, one
+  square root, and the return factor ``sigma_y/q_trial`` takes one division after it;
+  the deviatoric work of a plastic model is ``(s_rot:de + factor s_trial:de)/2``.
+
+These regroupings change results by round-off only (relative 1e-16 per step; models
+without an EOS that are not plastic are bit-for-bit the straightforward formulas).
 """
 import math
 
 from numba import njit
 
-from .eos import bulk_viscosity, eos_at_density, eos_tangent_at, mie_gruneisen_pressure
+from .eos import bulk_viscosity, eos_at_density, mie_gruneisen_pressure
 from .layout import (A, B, C, CHI, CP, EOS_C0, EOS_GAMMA0, EOS_NONE, EOS_S, EOS_TYPE,
                      EPS_DOT0, EPS_FAIL, FLUID, G, J2_PLASTIC, JOHNSON_COOK, K, M, N, N_SLOTS,
                      NEO_HOOKEAN, Q_LINEAR, Q_QUADRATIC, RHO0, RIGID, T_MELT, T_ROOM,
                      TENSION_CUTOFF, VISCOSITY)
-from .plasticity import plastic_multiplier, radial_return, thermal_factor
+from .plasticity import plastic_increment, thermal_factor
 from .tensors import (add, all_finite, deviator, double_dot, fdiv, jaumann_rotate, scale,
                       skew9, sym9, trace, von_mises)
 
@@ -134,7 +143,10 @@ def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, 
     Returns
     -------
     s : tuple of 6 float
-        Deviatoric stress at the end of the step.
+        Deviatoric stress at the end of the step, ``factor * s_trial``.
+    factor : float
+        1 for an elastic step, ``sigma_y / q_trial`` for a plastic one, 0 for a failed
+        particle.
     eps1, temp1 : float
         Plastic strain and temperature at the end of the step.
     converged : bool
@@ -147,22 +159,24 @@ def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, 
     deviator at the end of the step. Heating ``dT = chi sigma_y dlam / (rho cp)`` is applied
     when ``cp > 0`` (seed 001 Eq. 39 with the Taylor-Quinney factor chi). The thermal
     factor uses the start-of-step temperature. Linear hardening without rate term takes
-    the closed form of :func:`pmpm.materials.plasticity.plastic_multiplier`: one square
+    the closed form of :func:`pmpm.materials.plasticity.plastic_increment`: one square
     root (the von Mises stress), no other transcendental call.
     """
     if has_failed(eps0, eps_fail):
-        return ZERO6, eps0, temp0, True
+        return ZERO6, 0.0, eps0, temp0, True
     theta = thermal_factor(m, temp0, t_room, t_melt)
     q_trial = von_mises(s_trial)
-    dlam, sigma_y, ok = plastic_multiplier(q_trial, g, eps0, dt, a, b, n, c, eps_dot0, theta)
-    s = radial_return(s_trial, q_trial, sigma_y)
+    dlam, sigma_y, ratio, ok = plastic_increment(q_trial, g, eps0, dt, a, b, n, c, eps_dot0,
+                                                 theta)
     eps1 = eps0 + dlam
     temp1 = temp0
     if cp > 0.0:
         temp1 = temp0 + fdiv(chi * sigma_y * dlam, rho_mid * cp)
     if has_failed(eps1, eps_fail):
-        return ZERO6, eps1, temp1, ok
-    return s, eps1, temp1, ok
+        return ZERO6, 0.0, eps1, temp1, ok
+    if q_trial <= sigma_y:
+        return s_trial, 1.0, eps1, temp1, ok
+    return scale(s_trial, ratio), ratio, eps1, temp1, ok
 
 
 @njit(cache=True, inline="always")
@@ -183,23 +197,24 @@ def pressure_and_energy(a, b, e_old, work_dev, p_old, q, dv, rho_mid):
     -----
     The energy equation ``e_new = e_old + [w_dev - ((p_old + p_new)/2 + q) dv]/rho_mid``
     with ``p_new = a + b e_new`` is linear in ``e_new``; its solution is
-    ``e_new = (e_old + [w_dev - ((p_old + a)/2 + q) dv]/rho_mid) / (1 + b dv/(2 rho_mid))``
+    ``e_new = (rho_mid e_old + w_dev - ((p_old + a)/2 + q) dv) / (rho_mid + b dv/2)``
     (as LS-DYNA does for EOSs linear in energy), so no lag between p and e remains.
     """
-    den = 1.0 + fdiv(0.5 * b * dv, rho_mid)
+    den = rho_mid + 0.5 * b * dv
     if not den > 0.0:
         return math.nan, math.nan
-    e_new = fdiv(e_old + fdiv(work_dev - (0.5 * (p_old + a) + q) * dv, rho_mid), den)
+    # 1/den does not wait for the deviatoric work: one multiply at the end of the chain
+    e_new = (rho_mid * e_old + (work_dev - (0.5 * (p_old + a) + q) * dv)) * fdiv(1.0, den)
     return a + b * e_new, e_new
 
 
 @njit(cache=True, inline="always")
-def bulk_stiffness(code, k_bulk, eos_type, rho, pressure, rho0, c0, gamma0, dref, opm2):
-    """``K_t`` of :func:`wave_speed` from the EOS parts of
-    :func:`pmpm.materials.eos.eos_at_density` (unused without an EOS)."""
+def bulk_stiffness(code, k_bulk, has_eos, kt0, kt1, pressure, rho, c0):
+    """``K_t`` of :func:`wave_speed` at ``pressure``; with an EOS ``rho dp/drho`` is
+    ``kt0 + kt1 pressure`` (:func:`pmpm.materials.eos.eos_at_density`)."""
     k_t = k_bulk
-    if eos_type != EOS_NONE:
-        k_t = max(k_t, rho * eos_tangent_at(eos_type, pressure, rho0, c0, gamma0, dref, opm2))
+    if has_eos:
+        k_t = max(k_t, kt0 + kt1 * pressure)
     if code == FLUID:
         k_t = max(k_t, rho * c0 * c0)
     return k_t
@@ -209,6 +224,13 @@ def bulk_stiffness(code, k_bulk, eos_type, rho, pressure, rho0, c0, gamma0, dref
 def speed_from_stiffness(k_t, g43, rho):
     """``sqrt((K_t + 4G/3)/rho)``, ``g43 = 4G/3``."""
     return math.sqrt(fdiv(max(k_t + g43, 0.0), rho))
+
+
+@njit(cache=True, inline="always")
+def speed_from_inverse(k_t, g43, inv_rho):
+    """``sqrt((K_t + 4G/3) / rho)`` with ``inv_rho = 1/rho`` (a multiply, not a division,
+    at the end of the chain of a step with an EOS)."""
+    return math.sqrt(max(k_t + g43, 0.0) * inv_rho)
 
 
 @njit(cache=True)
@@ -232,26 +254,25 @@ def wave_speed(code, prm, rho, pressure):
         Solids: ``sqrt((K_t + 4G/3)/rho)`` with ``K_t = K``, or with an EOS
         ``K_t = max(K, rho dp/drho)``, so a compressed Mie-Grueneisen solid stiffens.
         Fluids: ``sqrt(max(dp/drho, c0^2))``: the EOS sound speed, never below c0.
-        Rigid: 0.
+        Rigid: 0. The same arithmetic as the speed :func:`update_stress` returns for the
+        end-of-step density and pressure.
     """
     if code == RIGID:
         return 0.0
     eos_type = prm[EOS_TYPE]
-    dref = 0.0
-    opm2 = 1.0
-    if eos_type != EOS_NONE:
-        _, _, dref, opm2 = eos_at_density(eos_type, rho, prm[RHO0], prm[EOS_C0], prm[EOS_S],
-                                          prm[EOS_GAMMA0])
-    k_t = bulk_stiffness(code, prm[K], eos_type, rho, pressure, prm[RHO0], prm[EOS_C0],
-                         prm[EOS_GAMMA0], dref, opm2)
-    return speed_from_stiffness(k_t, 4.0 / 3.0 * prm[G], rho)
-
-
-FAILED = (False, False, -1.0, ZERO6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    g43 = 4.0 / 3.0 * prm[G]
+    if eos_type == EOS_NONE:
+        k_t = bulk_stiffness(code, prm[K], False, 0.0, 0.0, pressure, rho, prm[EOS_C0])
+        return speed_from_stiffness(k_t, g43, rho)
+    _, _, kt0, kt1 = eos_at_density(eos_type, rho, prm[RHO0], prm[EOS_C0], prm[EOS_S],
+                                    prm[EOS_GAMMA0])
+    k_t = bulk_stiffness(code, prm[K], True, kt0, kt1, pressure, rho, prm[EOS_C0])
+    return speed_from_inverse(k_t, g43, fdiv(1.0, rho))
 
 
 @njit(cache=True, inline="always")
-def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old, temp_old):
+def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old, temp_old,
+                  q_old):
     """One particle's constitutive step on values (the arithmetic of :func:`update_stress`).
 
     Parameters
@@ -267,34 +288,29 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
     sig_old : tuple of 6 float
         Stress at the start of the step.
     f_old : tuple of 9 float
-        Deformation gradient at the start of the step (used by Neo-Hookean only).
-    rho_old, eps_old, e_old, temp_old : float
-        Density, plastic strain, specific energy and temperature at the start of the step.
+        Deformation gradient at the start of the step, row-major.
+    rho_old, eps_old, e_old, temp_old, q_old : float
+        Density, plastic strain, specific energy, temperature and bulk viscosity at the
+        start of the step.
 
     Returns
     -------
-    ok : bool
-        The update succeeded (False for a rigid particle too).
-    plastic : bool
-        The return map ran (then ``eps1`` and ``temp1`` are stored even if not ok).
-    c : float
-        The return value of :func:`update_stress`.
-    s_new : tuple of 6 float
-        Deviatoric stress at the end of the step.
-    p_new, rho_new, e_new, q_new, eps1, temp1 : float
-        Pressure, density, specific energy, bulk viscosity, plastic strain and temperature
-        at the end of the step.
+    tuple
+        ``(c, stress, F, rho, eps_p, e_int, temp, q)``: the return value of
+        :func:`update_stress` and the values to store. A failed or rigid update returns the
+        old values, except that ``eps_p`` and ``temp`` are those of the return map whenever
+        it ran.
     """
     if code == RIGID:
-        return (False, False, 0.0, ZERO6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return 0.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old
     d = sym9(lg)
     div = trace(d)
     dv = div * dt
     if not 1.0 + dv > 0.0:
-        return FAILED
+        return -1.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old
     rho_new = fdiv(rho_old, 1.0 + dv)
     if not (rho_new > 0.0 and math.isfinite(rho_new)):
-        return FAILED
+        return -1.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old
     rho_mid = 0.5 * (rho_old + rho_new)
     g = prm[G]
     k_bulk = prm[K]
@@ -302,7 +318,6 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
     de = scale(d, dt)
 
     # deviatoric part, by model; work_dev = s_avg : de
-    plastic = False
     converged = True
     eps1 = eps_old
     temp1 = temp_old
@@ -318,30 +333,37 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
         s_rot = deviator(jaumann_rotate(sig_old, skew9(lg), dt))
         s_new = add(s_rot, scale(deviator(de), 2.0 * g))
         if code == J2_PLASTIC or code == JOHNSON_COOK:
-            plastic = True
-            s_new, eps1, temp1, converged = plastic_step(
+            # s_avg : de = (s_rot : de + factor s_trial : de)/2, both products ready
+            # before the return map ends (equal to the elastic form up to round-off)
+            w_rot = double_dot(s_rot, de)
+            w_trial = double_dot(s_new, de)
+            s_new, factor, eps1, temp1, converged = plastic_step(
                 s_new, g, eps_old, temp_old, dt, rho_mid, prm[A], prm[B], prm[N], prm[C],
                 prm[EPS_DOT0], prm[M], prm[T_ROOM], prm[T_MELT], prm[CP], prm[CHI],
                 prm[EPS_FAIL])
-        work_dev = double_dot(scale(add(s_rot, s_new), 0.5), de)
+            work_dev = 0.5 * (w_rot + factor * w_trial)
+        else:
+            work_dev = double_dot(scale(add(s_rot, s_new), 0.5), de)
         p_new = p_old - k_bulk * dv
 
     # volumetric part: the EOS at the new density once, for pressure and both wave speeds
     eos_type = prm[EOS_TYPE]
     has_eos = eos_type != EOS_NONE
-    rho0 = prm[RHO0]
     c0 = prm[EOS_C0]
-    gamma0 = prm[EOS_GAMMA0]
-    a = b = dref = 0.0
-    opm2 = 1.0
-    if has_eos:
-        a, b, dref, opm2 = eos_at_density(eos_type, rho_new, rho0, c0, prm[EOS_S], gamma0)
     g43 = 4.0 / 3.0 * g
-    k_old = bulk_stiffness(code, k_bulk, eos_type, rho_new, p_old, rho0, c0, gamma0, dref, opm2)
+    a = b = kt0 = kt1 = inv_rho = 0.0
+    if has_eos:
+        a, b, kt0, kt1 = eos_at_density(eos_type, rho_new, prm[RHO0], c0, prm[EOS_S],
+                                        prm[EOS_GAMMA0])
+        inv_rho = fdiv(1.0, rho_new)
+    k_old = bulk_stiffness(code, k_bulk, has_eos, kt0, kt1, p_old, rho_new, c0)
     q_new = 0.0
     if not div >= 0.0:
-        q_new = bulk_viscosity(rho_new, h, speed_from_stiffness(k_old, g43, rho_new), div,
-                               prm[Q_LINEAR], prm[Q_QUADRATIC])
+        if has_eos:
+            c_old = speed_from_inverse(k_old, g43, inv_rho)
+        else:
+            c_old = speed_from_stiffness(k_old, g43, rho_new)
+        q_new = bulk_viscosity(rho_new, h, c_old, div, prm[Q_LINEAR], prm[Q_QUADRATIC])
     if has_eos:
         p_new, e_new = pressure_and_energy(a, b, e_old, work_dev, p_old, q_new, dv, rho_mid)
     else:
@@ -349,16 +371,18 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
     if code == FLUID and p_new < -prm[TENSION_CUTOFF]:
         p_new = -prm[TENSION_CUTOFF]
         e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dv, rho_mid)
-    k_new = k_old
     if has_eos:
-        k_new = bulk_stiffness(code, k_bulk, eos_type, rho_new, p_new, rho0, c0, gamma0,
-                               dref, opm2)
-    c = speed_from_stiffness(k_new, g43, rho_new)
-    ok = (converged and all_finite(s_new) and math.isfinite(p_new) and math.isfinite(e_new)
-          and math.isfinite(c))
-    if not ok:
-        c = -1.0
-    return ok, plastic, c, s_new, p_new, rho_new, e_new, q_new, eps1, temp1
+        c = speed_from_inverse(bulk_stiffness(code, k_bulk, True, kt0, kt1, p_new, rho_new, c0),
+                               g43, inv_rho)
+    else:
+        c = speed_from_stiffness(k_old, g43, rho_new)
+    if not (converged and all_finite(s_new) and math.isfinite(p_new) and math.isfinite(e_new)
+            and math.isfinite(c)):
+        return -1.0, sig_old, f_old, rho_old, eps1, e_old, temp1, q_old
+    sig_new = (s_new[0] - p_new, s_new[1] - p_new, s_new[2] - p_new, s_new[3], s_new[4],
+               s_new[5])
+    return (c, sig_new, advance_deformation_gradient(f_old, lg, dt), rho_new, eps1, e_new,
+            temp1, q_new)
 
 
 @njit(cache=True, inline="always")
@@ -412,8 +436,7 @@ def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q
 
     Inlined into its caller (see the module's notes on speed). Every column is read before
     and written after :func:`material_step`, outside any branch; a failed update writes
-    back the values it finds, re-read after the first store so that no old value is kept
-    through the update.
+    back the values it read.
     """
     prm_t = (prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8],
              prm[9], prm[10], prm[11], prm[12], prm[13], prm[14], prm[15], prm[16],
@@ -424,28 +447,16 @@ def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q
                stress[p, 5])
     f_old = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4], F[p, 5], F[p, 6], F[p, 7],
              F[p, 8])
-    rho_old = rho[p]
-    ok, plastic, c, s, p_new, rho_new, e_new, q_new, eps1, temp1 = material_step(
-        code, prm_t, dt, h, lg, sig_old, f_old, rho_old, eps_p[p], e_int[p], temp[p])
-
-    rho[p] = rho_new if ok else rho_old
-    # re-read after a store: not merged with the reads above, so not kept through the update
-    sig_now = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
-               stress[p, 5])
-    sig = (s[0] - p_new, s[1] - p_new, s[2] - p_new, s[3], s[4], s[5]) if ok else sig_now
+    c, sig, f, rho_new, eps_new, e_new, temp_new, q_new = material_step(
+        code, prm_t, dt, h, lg, sig_old, f_old, rho[p], eps_p[p], e_int[p], temp[p], q[p])
     stress[p, 0], stress[p, 1], stress[p, 2] = sig[0], sig[1], sig[2]
     stress[p, 3], stress[p, 4], stress[p, 5] = sig[3], sig[4], sig[5]
-    f_now = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4], F[p, 5], F[p, 6], F[p, 7],
-             F[p, 8])
-    lg_now = (Lg[0, 0], Lg[0, 1], Lg[0, 2], Lg[1, 0], Lg[1, 1], Lg[1, 2],
-              Lg[2, 0], Lg[2, 1], Lg[2, 2])
-    f = advance_deformation_gradient(f_now, lg_now, dt) if ok else f_now
     F[p, 0], F[p, 1], F[p, 2] = f[0], f[1], f[2]
     F[p, 3], F[p, 4], F[p, 5] = f[3], f[4], f[5]
     F[p, 6], F[p, 7], F[p, 8] = f[6], f[7], f[8]
-    e_now, q_now, eps_now, temp_now = e_int[p], q[p], eps_p[p], temp[p]
-    e_int[p] = e_new if ok else e_now
-    q[p] = q_new if ok else q_now
-    eps_p[p] = eps1 if plastic else eps_now
-    temp[p] = temp1 if plastic else temp_now
+    rho[p] = rho_new
+    eps_p[p] = eps_new
+    e_int[p] = e_new
+    temp[p] = temp_new
+    q[p] = q_new
     return c

@@ -141,15 +141,39 @@ def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     (slow progress, e.g. at the kink of the rate term), is replaced by bisection. Converged when
     ``|r| <= NEWTON_RTOL q_trial`` or when the bracket has shrunk to round-off.
     """
+    dlam, sigma_y, _, converged = plastic_increment(q_trial, g, eps_p, dt, a, b, n, c,
+                                                    eps_dot0, theta)
+    return dlam, sigma_y, converged
+
+
+@njit(cache=True, inline="always")
+def plastic_increment(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
+    """:func:`plastic_multiplier` and the radial-return factor of the stress kernel.
+
+    Returns
+    -------
+    dlam, sigma_y, converged
+        As :func:`plastic_multiplier`.
+    ratio : float
+        ``sigma_y / q_trial``, the factor that scales the trial deviator back onto the
+        yield surface when the step yields (1 otherwise). For the closed form it is
+        evaluated as ``(3g sigma_y0 + theta b q_trial) / ((3g + theta b) q_trial)``, equal
+        up to round-off: one division after the square root of ``q_trial`` instead of two
+        in a row, which shortens the kernel's dependency chain.
+    """
     tol = NEWTON_RTOL * q_trial
     sy0 = theta * hardening(a, b, n, eps_p)            # flow_stress at dlam = 0
     if q_trial - sy0 <= tol:
-        return 0.0, sy0, True
+        return 0.0, sy0, 1.0, True
     if c == 0.0 and (n == 1.0 or b == 0.0):
         slope = theta * b if n == 1.0 else 0.0
-        dlam = fdiv(q_trial - sy0, 3.0 * g + slope)
-        return dlam, sy0 + slope * dlam, dlam >= 0.0
-    return newton_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta, sy0, tol)
+        g3 = 3.0 * g
+        dlam = fdiv(q_trial - sy0, g3 + slope)
+        ratio = fdiv(g3 * sy0 + slope * q_trial, (g3 + slope) * q_trial)
+        return dlam, sy0 + slope * dlam, ratio, dlam >= 0.0
+    dlam, sigma_y, converged = newton_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0,
+                                                 theta, sy0, tol)
+    return dlam, sigma_y, fdiv(sigma_y, q_trial), converged
 
 
 @njit(cache=True, inline="always")
