@@ -82,7 +82,8 @@ def test_internal_forces_of_uniform_stress_cancel_inside():
         x, np.zeros((n, 3)), np.full(n, d ** 3), np.ones(n), stress, F, *zeros,
         np.zeros(n, np.int32), np.full(n, -1, np.int32), np.zeros(n),
         np.array([code]), row[None, :], np.zeros(1, np.bool_), 1e-6, 1.0, np.zeros(3),
-        np.zeros((1, 3)), np.zeros(3), 1.0, b.lo, b.strides, np.zeros((b.n_nodes, 3)), force)
+        np.zeros((1, 3)), np.zeros(3), 1.0, b.lo, b.strides, np.zeros((b.n_nodes, 3)), force,
+        False, np.full(1, -1, np.int64), np.zeros((0, 1, 3)), np.zeros((0, 1, 3)))
     assert np.all(stress == [100.0, 50.0, 20.0, 10.0, 5.0, 2.0])
     assert np.abs(force.sum(axis=0)).max() < 1e-10
     interior = force.reshape(5, 5, 5, 3)[1:-1, 1:-1, 1:-1]

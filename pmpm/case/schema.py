@@ -4,6 +4,7 @@ relate one section to another. ``validate_case`` runs the whole pipeline on a ra
 import copy
 import math
 
+from .contact import check_contact, read_contact
 from .bodies import check_bodies_in_grid, check_mesh_files, check_min_below_max, read_body
 from .errors import CaseError, Problems, join, unknown_name
 from .fields import (INVALID, Field, at_least, at_most, boolean, choice, defaults_of,
@@ -86,6 +87,8 @@ def top_level_fields(default_title):
         "time": Field(mapping(TIME)),
         "output": Field(mapping(OUTPUT), defaults_of(OUTPUT)),
         "decomposition": Field(mapping(DECOMPOSITION), defaults_of(DECOMPOSITION)),
+        "contact": Field(read_contact, {"method": 0, "friction": 0.0, "normal": "average",
+                                        "pairs": []}),
     }
 
 
@@ -126,6 +129,8 @@ def check_references(case, problems):
             problems.add(join(join("bodies", i), "material"),
                          unknown_name("material", body["material"], materials))
     _check_output_times(case, problems)
+    if all(valid(body, "name") for body in bodies):
+        check_contact(case["contact"], body_names, problems)
     names_complete = all(valid(body, "name") for body in bodies)
     for i, load in enumerate(loads):
         if valid(load, "body") and names_complete and load["body"] not in body_names:

@@ -20,6 +20,17 @@ def sum_shared_planes(world, planes, block):
     Both neighbours compute ``own + theirs`` (one addition per value), which is bitwise
     symmetric, so the two copies of a shared node stay identical.
     """
+    _combine_shared_planes(world, planes, block, np.add)
+
+
+def or_shared_planes(world, planes, block):
+    """Like ``sum_shared_planes`` for integer bit masks: OR in the neighbours' bits."""
+    _combine_shared_planes(world, planes, block, np.bitwise_or)
+
+
+def _combine_shared_planes(world, planes, block, combine):
+    """``block[index] = combine(block[index], neighbour's copy)`` for every shared plane;
+    ``block`` may also be a dict of plane index -> view."""
     if not planes:
         return
     MPI = _mpi()
@@ -32,7 +43,8 @@ def sum_shared_planes(world, planes, block):
         received.append((index, incoming, outgoing))
     MPI.Request.Waitall(requests)
     for index, incoming, _ in received:
-        block[index] += incoming
+        view = block[index]
+        combine(view, incoming, out=view)
 
 
 def migrate(world, destination, columns, check=True, replace=None):

@@ -101,10 +101,13 @@ def integrate_nodes(nodal, force, gvel, dt, shape, lo, strides, n_cells, bc, m_t
 
 
 @njit(cache=True)
-def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gnew):
+def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gnew,
+                      contact, slot_of, cnew):
     """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
-    accelerations (Eq. 16); rigid particles move with their own velocity. Returns the
-    index of the first particle whose new position is not finite, else -1."""
+    accelerations (Eq. 16); rigid particles move with their own velocity. With
+    ``contact``, a particle reads its own body's field ``cnew`` at contact nodes
+    (``slot_of[n] >= 0``; seed 001 Eqs. 33-34). Returns the index of the first particle
+    whose new position is not finite, else -1."""
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     bad = -1
@@ -115,14 +118,24 @@ def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gn
             continue
         trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
         dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
+        b = body[p]
         for k in range(8):
             n, wk = nodes[k], w[k]
-            dx0 += wk * gnew[n, 0]
-            dx1 += wk * gnew[n, 1]
-            dx2 += wk * gnew[n, 2]
-            dv0 += wk * gnew[n, 3]
-            dv1 += wk * gnew[n, 4]
-            dv2 += wk * gnew[n, 5]
+            s = slot_of[n] if contact else -1
+            if s < 0:
+                dx0 += wk * gnew[n, 0]
+                dx1 += wk * gnew[n, 1]
+                dx2 += wk * gnew[n, 2]
+                dv0 += wk * gnew[n, 3]
+                dv1 += wk * gnew[n, 4]
+                dv2 += wk * gnew[n, 5]
+            else:
+                dx0 += wk * cnew[s, b, 0]
+                dx1 += wk * cnew[s, b, 1]
+                dx2 += wk * cnew[s, b, 2]
+                dv0 += wk * cnew[s, b, 3]
+                dv1 += wk * cnew[s, b, 4]
+                dv2 += wk * cnew[s, b, 5]
         x[p, 0] += dt * dx0
         x[p, 1] += dt * dx1
         x[p, 2] += dt * dx2
@@ -137,9 +150,12 @@ def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gn
 @njit(cache=True)
 def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, load, load_scale,
                       body_code, body_prm, body_rigid, dt, h, gravity, load_vec,
-                      origin, inv_h, lo, strides, gvel, force):
+                      origin, inv_h, lo, strides, gvel, force, contact, slot_of, cvel,
+                      cforce):
     """Update every particle's stress from the nodal velocities (Eq. 29 and the material
     kernel), then scatter its internal and external force (Eqs. 31-32) in the same pass.
+    With ``contact``, at contact nodes (``slot_of[n] >= 0``) a particle sees its own
+    body's velocity ``cvel`` and its force also goes to its body's ``cforce``.
 
     Returns
     -------
@@ -148,6 +164,7 @@ def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, l
     """
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    slots = np.full(8, -1, np.int64)
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     for p in range(x.shape[0]):
@@ -159,11 +176,20 @@ def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, l
         Lg[:, :] = 0.0          # L_ij = sum_I v_Ii dN_I/dx_j, written out: as an inlined
         for k in range(8):      # call it costs 7 % of the step in reference counting
             n = nodes[k]
-            for i in range(3):
-                vi = gvel[n, i]
-                Lg[i, 0] += vi * gx[k]
-                Lg[i, 1] += vi * gy[k]
-                Lg[i, 2] += vi * gz[k]
+            if contact:
+                slots[k] = slot_of[n]
+            if slots[k] < 0:
+                for i in range(3):
+                    vi = gvel[n, i]
+                    Lg[i, 0] += vi * gx[k]
+                    Lg[i, 1] += vi * gy[k]
+                    Lg[i, 2] += vi * gz[k]
+            else:
+                for i in range(3):
+                    vi = cvel[slots[k], b, i]
+                    Lg[i, 0] += vi * gx[k]
+                    Lg[i, 1] += vi * gy[k]
+                    Lg[i, 2] += vi * gz[k]
         c = update_stress(p, body_code[b], body_prm[b], dt, h, Lg, stress, F, rho,
                           eps_p, e_int, temp, q)
         if c < 0.0 and bad < 0:
@@ -181,9 +207,16 @@ def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, l
             ez += ls * load_vec[li, 2]
         for k in range(8):
             n = nodes[k]
-            force[n, 0] += w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
-            force[n, 1] += w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
-            force[n, 2] += w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+            f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
+            f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
+            f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+            force[n, 0] += f0
+            force[n, 1] += f1
+            force[n, 2] += f2
+            if slots[k] >= 0:
+                cforce[slots[k], b, 0] += f0
+                cforce[slots[k], b, 1] += f1
+                cforce[slots[k], b, 2] += f2
     return fastest, bad
 
 

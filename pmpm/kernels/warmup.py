@@ -5,7 +5,7 @@ import time
 import numpy as np
 
 from ..materials import layout
-from . import mpm
+from . import contact, mpm
 
 
 def warm_up():
@@ -25,12 +25,25 @@ def warm_up():
     bc, n_cells = np.zeros(6, np.int64), np.ones(3, np.int64)
     mpm.particles_to_grid(x, v, ones, body, rigid, origin, inv_h, lo, strides, nodal)
     mpm.nodal_velocities(nodal, shape, lo, strides, n_cells, bc, 0.0, gvel)
+    mask, slot_of = np.zeros(8, np.int64), np.zeros(8, np.int64)
+    contact.body_masks(x, body, origin, inv_h, lo, strides, mask)
+    slot_nodes = contact.number_contact_nodes(mask, slot_of)
+    cnodal = np.zeros((0, 1, contact.CNODAL))
+    cvel, cforce, cnew = np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1, 6))
+    contact.contact_particles_to_grid(x, v, ones, body, origin, inv_h, lo, strides, slot_of,
+                                      cnodal)
+    contact.contact_start(cnodal, slot_nodes, gvel, np.zeros((1, 1), np.int64), rigid, 2, 0.0,
+                          shape, lo, strides, n_cells, bc, cvel, cvel)
     mpm.stress_and_forces(x, v, ones.copy(), ones.copy(), np.zeros((1, 6)),
                           np.eye(3).reshape(1, 9).copy(), np.zeros(1), np.zeros(1), np.zeros(1),
                           np.zeros(1), body, np.full(1, -1, np.int32), np.zeros(1),
                           np.zeros(1, np.int64), prm, rigid, 1e-3, 1.0, np.zeros(3),
-                          np.zeros((1, 3)), origin, inv_h, lo, strides, gvel, force)
+                          np.zeros((1, 3)), origin, inv_h, lo, strides, gvel, force,
+                          True, slot_of, cvel, cforce)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, shape, lo, strides, n_cells, bc, 0.0, gnew)
-    mpm.grid_to_particles(x, v, body, rigid, 1e-3, origin, inv_h, lo, strides, gnew)
+    contact.contact_end(cnodal, cvel, cvel, cforce, slot_nodes, gnew, np.zeros((1, 1)), rigid,
+                        1e-3, 0.0, shape, lo, strides, n_cells, bc, cnew)
+    mpm.grid_to_particles(x, v, body, rigid, 1e-3, origin, inv_h, lo, strides, gnew,
+                          True, slot_of, cnew)
     mpm.cell_keys(x, origin, inv_h, n_cells)
     return time.perf_counter() - started

@@ -17,7 +17,8 @@ class Simulation:
         self.bodies = bodies
         mean_mass = world.sum(float(particles.mass.sum())) / max(world.sum(particles.n), 1)
         self.stepper = Stepper(world, grid, slabs, particles, bodies,
-                               case.get("gravity", [0, 0, 0]), 1e-12 * mean_mass)
+                               case.get("gravity", [0, 0, 0]), 1e-12 * mean_mass,
+                               case.get("contact"))
         self.loads = case.get("loads", [])
         self.time, self.step_count = 0.0, 0
 

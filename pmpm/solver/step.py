@@ -5,6 +5,7 @@ from ..comm import sum_shared_planes, migrate
 from ..comm.slabs import balanced_bounds, Slabs
 from ..grid import LocalBlock
 from ..kernels import mpm
+from .contact import ContactFields, ContactRules
 from .errors import SolverError
 
 
@@ -41,7 +42,7 @@ class Stepper:
     gravity : (3,) array
     """
 
-    def __init__(self, world, grid, slabs, particles, bodies, gravity, m_tiny):
+    def __init__(self, world, grid, slabs, particles, bodies, gravity, m_tiny, contact=None):
         self.world, self.grid, self.slabs = world, grid, slabs
         self.particles, self.bodies = particles, bodies
         self.gravity = np.asarray(gravity, dtype=np.float64)
@@ -53,6 +54,8 @@ class Stepper:
         self.block = None
         self.fault = None
         self.cell_range = self.global_cell_range()
+        self.rules = ContactRules(contact or {}, bodies)
+        self.contact = ContactFields(self.rules, world, self.work, m_tiny)
 
     # -- the step ---------------------------------------------------------------
     def step(self, dt):
@@ -75,12 +78,16 @@ class Stepper:
         mpm.particles_to_grid(p.x, p.v, p.mass, p.body, self.bodies.rigid, self.grid.origin,
                               1.0 / self.grid.h, b.lo, b.strides, self.nodal)
         sum_shared_planes(self.world, b.shared_planes, b.as_planes(self.nodal))
+        if self.rules.active:
+            self.contact.map_particles(p, self.grid, b, len(self.bodies.names))
 
     def nodal_velocities_with_boundaries(self):
         b = self.block
         self.gvel = self.work.empty("gvel", b.n_nodes, 3)
         mpm.nodal_velocities(self.nodal, b.shape, b.lo, b.strides, self.grid.n_cells,
                              self.grid.boundary, self.m_tiny, self.gvel)
+        if self.rules.active:
+            self.contact.start_velocities(self.gvel, self.bodies, self.grid, b)
 
     def update_stress_and_nodal_forces(self, dt):
         p, b, g = self.particles, self.block, self.grid
@@ -89,7 +96,7 @@ class Stepper:
             p.x, p.v, p.mass, p.rho, p.stress, p.F, p.eps_p, p.e_int, p.temp, p.q, p.body,
             p.load, p.load_scale, self.bodies.codes, self.bodies.params, self.bodies.rigid,
             dt, g.h, self.gravity, self.load_vec, g.origin, 1.0 / g.h, b.lo, b.strides,
-            self.gvel, self.force)
+            self.gvel, self.force, *self.contact_arrays("cvel", "cforce"))
         self.note_fault(bad, "constitutive update failed (NaN, non-convergence or "
                              "non-positive density)")
         sum_shared_planes(self.world, b.shared_planes, b.as_planes(self.force))
@@ -99,11 +106,14 @@ class Stepper:
         self.gnew = self.work.empty("gnew", b.n_nodes, 6)
         mpm.integrate_nodes(self.nodal, self.force, self.gvel, dt, b.shape, b.lo, b.strides,
                             self.grid.n_cells, self.grid.boundary, self.m_tiny, self.gnew)
+        if self.rules.active:
+            self.contact.end_velocities(self.gnew, self.bodies, dt, self.grid, b)
 
     def update_particles(self, dt):
         p, b, g = self.particles, self.block, self.grid
         bad = mpm.grid_to_particles(p.x, p.v, p.body, self.bodies.rigid, dt, g.origin,
-                                    1.0 / g.h, b.lo, b.strides, self.gnew)
+                                    1.0 / g.h, b.lo, b.strides, self.gnew,
+                                    *self.contact_arrays("cnew"))
         self.note_fault(bad, "position is not finite")
 
     def migrate_and_check(self):
@@ -132,6 +142,13 @@ class Stepper:
             migrate(self.world, owner, p.columns(), check=False, replace=p.replace_column)
 
     # -- helpers ----------------------------------------------------------------
+    def contact_arrays(self, *names):
+        """(contact on?, slot_of, the named per-slot arrays) for the particle kernels;
+        empty stand-ins when contact is off."""
+        if not self.rules.active:
+            return (False, self.contact.slot_of) + (self.contact.empty,) * len(names)
+        return (True, self.contact.slot_of) + tuple(getattr(self.contact, n) for n in names)
+
     def send_to_owners(self, slabs):
         p = self.particles
         cells = self.grid.cells_of(p.x)[:, slabs.axis] if p.n else np.zeros(0, np.int64)

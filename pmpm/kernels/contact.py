@@ -1,0 +1,239 @@
+"""Multi-velocity grid contact (seed 001 Secs. 2-4): the node loops.
+
+Every body keeps its own nodal field only at *contact nodes*, the nodes that particles
+of two or more bodies reach; everywhere else the single shared field of ``mpm`` is the
+field of the one body there. Contact nodes are numbered in increasing local node order
+("slots"), so the slots of one slab plane are one contiguous range.
+
+Per-slot arrays, shape (n_slots, n_bodies, c):
+``cnodal`` c = 7: mass, momentum (3), mass gradient sum_p m_p G_ip (3) (Eq. 9: it
+points from a body's particles out to the node);
+``cvel`` c = 3: velocity at the start of the step (Eq. 6; Eq. 25 applied by method 2);
+``cnorm`` c = 3: collinear unit outward normal (Sec. 2.3);
+``cforce`` c = 3: internal + external force of the body alone (Eq. 31);
+``cnew`` c = 6: velocity at the end of the step (Eq. 14) and acceleration (Eq. 34).
+
+Pair tables, shape (n_bodies, n_bodies): ``friction`` (Coulomb mu) and ``master``
+(-1: average of the two normals, Eq. 10; else the body whose own normal both use).
+"""
+import numpy as np
+from numba import njit
+
+FIXED, SLIP = 2, 1
+CNODAL, CVEL, CNEW = 7, 3, 6
+
+
+@njit(cache=True)
+def body_masks(x, body, origin, inv_h, lo, strides, mask):
+    """mask[n] |= 1 << body for the 8 nodes of every particle's cell."""
+    for p in range(x.shape[0]):
+        base = 0
+        for d in range(3):
+            base += (np.int64(np.floor((x[p, d] - origin[d]) * inv_h)) - lo[d]) * strides[d]
+        bit = np.int64(1) << np.int64(body[p])
+        for a in range(2):
+            for b in range(2):
+                for c in range(2):
+                    mask[base + a * strides[0] + b * strides[1] + c * strides[2]] |= bit
+
+
+@njit(cache=True)
+def number_contact_nodes(mask, slot_of):
+    """slot_of[n] = slot of node n if two or more bodies reach it, else -1; returns the
+    nodes of the slots in order."""
+    count = 0
+    for n in range(mask.shape[0]):
+        m = mask[n]
+        if m & (m - 1):
+            slot_of[n] = count
+            count += 1
+        else:
+            slot_of[n] = -1
+    nodes = np.empty(count, np.int64)
+    for n in range(mask.shape[0]):
+        if slot_of[n] >= 0:
+            nodes[slot_of[n]] = n
+    return nodes
+
+
+@njit(cache=True)
+def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot_of, cnodal):
+    """Each body's mass, momentum and mass gradient at the contact nodes (Eqs. 27-28, 9)."""
+    for p in range(x.shape[0]):
+        s0 = (x[p, 0] - origin[0]) * inv_h
+        s1 = (x[p, 1] - origin[1]) * inv_h
+        s2 = (x[p, 2] - origin[2]) * inv_h
+        c0, c1, c2 = np.floor(s0), np.floor(s1), np.floor(s2)
+        r0, r1, r2 = s0 - c0, s1 - c1, s2 - c2
+        base = ((np.int64(c0) - lo[0]) * strides[0] + (np.int64(c1) - lo[1]) * strides[1]
+                + (np.int64(c2) - lo[2]) * strides[2])
+        b, m = body[p], mass[p]
+        for a in range(2):
+            wx, dx = (r0, inv_h) if a else (1.0 - r0, -inv_h)
+            for bb in range(2):
+                wy, dy = (r1, inv_h) if bb else (1.0 - r1, -inv_h)
+                for cc in range(2):
+                    s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
+                    if s < 0:
+                        continue
+                    wz, dz = (r2, inv_h) if cc else (1.0 - r2, -inv_h)
+                    mw = m * wx * wy * wz
+                    cnodal[s, b, 0] += mw
+                    cnodal[s, b, 1] += mw * v[p, 0]
+                    cnodal[s, b, 2] += mw * v[p, 1]
+                    cnodal[s, b, 3] += mw * v[p, 2]
+                    cnodal[s, b, 4] += m * dx * wy * wz
+                    cnodal[s, b, 5] += m * wx * dy * wz
+                    cnodal[s, b, 6] += m * wx * wy * dz
+
+
+@njit(cache=True, inline="always")
+def _face_mask(n, shape, lo, strides, n_cells, bc, out):
+    """out[d] = boundary code of the box face local node n lies on along d (0 if none)."""
+    for d in range(3):
+        g = lo[d] + (n // strides[d]) % shape[d]
+        out[d] = 0
+        if g == 0:
+            out[d] = bc[2 * d]
+        elif g == n_cells[d]:
+            out[d] = bc[2 * d + 1]
+
+
+@njit(cache=True, inline="always")
+def _constrain(vec, mask):
+    for d in range(3):
+        if mask[d] == FIXED:
+            vec[0] = vec[1] = vec[2] = 0.0
+            return
+    for d in range(3):
+        if mask[d] == SLIP:
+            vec[d] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _normalise(vec):
+    size = np.sqrt(vec[0] ** 2 + vec[1] ** 2 + vec[2] ** 2)
+    if size > 0.0:
+        for d in range(3):
+            vec[d] /= size
+    return size
+
+
+@njit(cache=True, inline="always")
+def _heaviest_other(cnodal, s, b, m_tiny):
+    other, heaviest = -1, m_tiny
+    for c in range(cnodal.shape[1]):
+        if c != b and cnodal[s, c, 0] > heaviest:
+            other, heaviest = c, cnodal[s, c, 0]
+    return other
+
+
+@njit(cache=True)
+def _collinear_normal(cnodal, s, b, other, master, out):
+    """The outward normal of body b at slot s against the heaviest other body there:
+    the master body's own normal (Sec. 2.3 choices 1-2), else Eq. 10 generalised to
+    (n_b - n_rest)/|n_b - n_rest| with n_rest the normal of all other bodies together."""
+    k = master[b, other]
+    if k >= 0:
+        sign = 1.0 if k == b else -1.0
+        for d in range(3):
+            out[d] = sign * cnodal[s, k, 4 + d]
+        _normalise(out)
+        return
+    rest = np.zeros(3)
+    for c in range(cnodal.shape[1]):
+        if c != b:
+            for d in range(3):
+                rest[d] += cnodal[s, c, 4 + d]
+    _normalise(rest)
+    for d in range(3):
+        out[d] = cnodal[s, b, 4 + d]
+    _normalise(out)
+    for d in range(3):
+        out[d] -= rest[d]
+    _normalise(out)
+
+
+@njit(cache=True)
+def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
+                  shape, lo, strides, n_cells, bc, cvel, cnorm):
+    """Per-body velocities (Eq. 6) and collinear normals at the contact nodes; method 2
+    sets the normal velocity of each approaching body to the centre of mass's (Eqs. 23,
+    25, slip form). ``gvel`` is the shared (centre-of-mass, Eq. 7) velocity."""
+    mask = np.zeros(3, np.int64)
+    vec = np.empty(3)
+    for s in range(slot_nodes.shape[0]):
+        n = slot_nodes[s]
+        _face_mask(n, shape, lo, strides, n_cells, bc, mask)
+        for b in range(cnodal.shape[1]):
+            m = cnodal[s, b, 0]
+            cnorm[s, b, 0] = cnorm[s, b, 1] = cnorm[s, b, 2] = 0.0
+            for d in range(3):
+                vec[d] = cnodal[s, b, 1 + d] / m if m > m_tiny else gvel[n, d]
+            _constrain(vec, mask)
+            if m > m_tiny:
+                other = _heaviest_other(cnodal, s, b, m_tiny)
+                if other >= 0:
+                    _collinear_normal(cnodal, s, b, other, master, cnorm[s, b])
+                    if method == 2 and not body_rigid[b]:
+                        approach = 0.0
+                        for d in range(3):
+                            approach += (vec[d] - gvel[n, d]) * cnorm[s, b, d]
+                        if approach > 0.0:
+                            for d in range(3):
+                                vec[d] -= approach * cnorm[s, b, d]
+            for d in range(3):
+                cvel[s, b, d] = vec[d]
+
+
+@njit(cache=True)
+def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gnew, friction, body_rigid, dt,
+                m_tiny, shape, lo, strides, n_cells, bc, cnew):
+    """Trial velocities of each body alone (Eqs. 11, 26); where a body approaches the
+    centre of mass (Eq. 12) the contact force of Eq. 22 (normal part Eq. 17, no-slip
+    tangential part Eq. 21 limited by Coulomb friction) corrects it (Eq. 14).
+    ``gnew[:, :3]`` is the shared trial velocity, i.e. the centre of mass's (Eq. 13)."""
+    mask = np.zeros(3, np.int64)
+    acc = np.empty(3)
+    tangent = np.empty(3)
+    for s in range(slot_nodes.shape[0]):
+        n = slot_nodes[s]
+        _face_mask(n, shape, lo, strides, n_cells, bc, mask)
+        for b in range(cnodal.shape[1]):
+            m = cnodal[s, b, 0]
+            if m <= m_tiny or body_rigid[b]:
+                for d in range(3):
+                    cnew[s, b, d], cnew[s, b, 3 + d] = gnew[n, d], gnew[n, 3 + d]
+                continue
+            for d in range(3):
+                acc[d] = cforce[s, b, d] / m
+            _constrain(acc, mask)
+            other = _heaviest_other(cnodal, s, b, m_tiny)
+            if other >= 0:
+                approach = 0.0
+                for d in range(3):
+                    approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]
+                if approach > 0.0:
+                    _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
+                                              friction[b, other], dt, tangent)
+                    _constrain(acc, mask)
+            for d in range(3):
+                cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
+                cnew[s, b, 3 + d] = acc[d]
+
+
+@njit(cache=True, inline="always")
+def _add_contact_acceleration(v0, acc, normal, cm_new, mu, dt, tangent):
+    """acc += f_ct / m (Eq. 22), all per unit mass: the stick correction
+    (v_cm - v_trial)/dt split into its normal part and the tangential rest, the latter
+    limited to mu times the normal part."""
+    normal_part = 0.0
+    for d in range(3):
+        tangent[d] = (cm_new[d] - v0[d] - acc[d] * dt) / dt
+        normal_part += tangent[d] * normal[d]
+    for d in range(3):
+        tangent[d] -= normal_part * normal[d]
+    stick = _normalise(tangent)
+    slide = min(mu * abs(normal_part), stick)
+    for d in range(3):
+        acc[d] += normal_part * normal[d] + slide * tangent[d]

@@ -1,0 +1,123 @@
+"""Multi-velocity grid contact (seed 001 Secs. 2-4): friction against the closed form,
+momentum conservation, no interpenetration, the stick limit, and bad input."""
+import csv
+import os
+
+import numpy as np
+import pytest
+import yaml
+
+from pmpm.case import CaseError, load_case
+from pmpm.kernels import contact as kc
+from pmpm.post import read_frame
+from runhelp import CASES, run_pmpm
+
+SLIDING = os.path.join(CASES, "sliding_block.yaml")
+BLOCKS = os.path.join(CASES, "two_blocks.yaml")
+BLOCK_MASS = 1000.0 * 0.02 ** 3                 # each cube of two_blocks.yaml (kg)
+
+
+def history(out):
+    with open(os.path.join(out, "history.csv"), encoding="utf-8") as f:
+        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+@pytest.mark.parametrize("method", [1, 2])
+def test_coulomb_friction_decelerates_a_sliding_block_at_mu_g(tmp_path, method):
+    """Eq. 22 with the flat plate's normal (Sec. 2.3 choice 2): v(t) = v0 - mu g t,
+    within 2.5 % of v0 at every history row (mu = 0.2, g = 10, v0 = 1 m/s, t <= 0.3 s)."""
+    run_pmpm(SLIDING, tmp_path, sets=[f"contact.method={method}",
+                                      "contact.pairs=[{bodies: [plate, block], normal: plate}]"])
+    rows = history(tmp_path)
+    error = max(abs(r["block.vx"] - (1.0 - 0.2 * 10.0 * r["time"])) for r in rows)
+    assert rows[-1]["time"] == pytest.approx(0.3)
+    assert error < 0.025          # elastic bodies settling under gravity: not rigid
+
+
+def test_without_friction_the_block_keeps_its_speed_and_without_contact_it_sticks(tmp_path):
+    run_pmpm(SLIDING, tmp_path / "free", sets=["params.mu=0",
+                                               "contact.pairs=[{bodies: [plate, block], "
+                                               "normal: plate}]"])
+    assert all(abs(r["block.vx"] - 1.0) < 0.01 for r in history(tmp_path / "free"))
+    run_pmpm(SLIDING, tmp_path / "none", sets=["contact.method=none"])
+    late = [r["block.vx"] for r in history(tmp_path / "none") if r["time"] > 0.1]
+    assert abs(np.mean(late)) < 0.3            # one shared field: welded to the plate
+
+
+@pytest.mark.parametrize("method", [1, 2])
+def test_colliding_cubes_conserve_momentum_and_do_not_interpenetrate(tmp_path, method):
+    """Unequal speeds (+2 and -1 m/s), free box, no gravity: the total momentum stays
+    put to round-off through contact and separation, and at every frame the left cube's
+    particles stay behind the right cube's."""
+    run_pmpm(BLOCKS, tmp_path, sets=[f"contact.method={method}", "params.v_right=-1.0",
+                                     "output.frames=20"])
+    rows = history(tmp_path)
+    momentum = [BLOCK_MASS * (r["left.vx"] + r["right.vx"]) for r in rows]
+    assert np.ptp(momentum) < 1e-12 * BLOCK_MASS * 3.0
+    assert rows[-1]["left.vx"] < rows[-1]["right.vx"]          # they came apart
+    for frame in range(21):
+        f = read_frame(tmp_path, frame)
+        left = f["x"][f["body"] == 0, 0].max()
+        right = f["x"][f["body"] == 1, 0].min()
+        assert left < right, f"interpenetration at frame {frame}"
+
+
+def test_stick_in_every_direction_gives_the_shared_field():
+    """The contact force of Eqs. 17 and 21 with unlimited friction at an approaching node
+    moves every body with the centre of mass, and the forces on the bodies cancel."""
+    rng = np.random.default_rng(5)
+    n_slots, nb = 40, 2
+    cnodal = np.zeros((n_slots, nb, kc.CNODAL))
+    cnodal[:, :, 0] = rng.uniform(0.5, 2.0, (n_slots, nb))
+    cnodal[:, :, 1:4] = cnodal[:, :, :1] * rng.normal(size=(n_slots, nb, 3))
+    cnodal[:, 0, 4:7] = [1.0, 0.1, 0.0]                   # body 0 faces +x, body 1 -x
+    cnodal[:, 1, 4:7] = [-1.0, 0.2, 0.0]
+    cnodal[:, 0, 1] = cnodal[:, 0, 0] * 3.0               # and they approach along x
+    cnodal[:, 1, 1] = -cnodal[:, 1, 0] * 3.0
+    cforce = rng.normal(size=(n_slots, nb, 3))
+    mass = cnodal[:, :, 0].sum(axis=1)
+    gvel = cnodal[:, :, 1:4].sum(axis=1) / mass[:, None]
+    dt = 1e-3
+    gnew = np.zeros((n_slots, 6))
+    gnew[:, 3:] = cforce.sum(axis=1) / mass[:, None]
+    gnew[:, :3] = gvel + gnew[:, 3:] * dt
+    geometry = (np.array([n_slots, 1, 1]), np.zeros(3, np.int64), np.array([1, 1, 1]),
+                np.array([10 ** 6] * 3), np.zeros(6, np.int64))
+    slots = np.arange(n_slots)
+    cvel, cnorm = np.empty((n_slots, nb, 3)), np.empty((n_slots, nb, 3))
+    rigid = np.zeros(nb, np.bool_)
+    kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), rigid, 1, 0.0, *geometry,
+                     cvel, cnorm)
+    assert np.allclose(cnorm[:, 0], -cnorm[:, 1])                 # collinear (Eq. 10)
+    cnew = np.empty((n_slots, nb, 6))
+    kc.contact_end(cnodal, cvel, cnorm, cforce, slots, gnew, np.full((nb, nb), 1e30), rigid,
+                   dt, 0.0, *geometry, cnew)
+    assert np.allclose(cnew[:, 0, :3], gnew[:, :3]) and np.allclose(cnew[:, 1, :3], gnew[:, :3])
+    momentum_change = (cnodal[:, :, :1] * cnew[:, :, 3:]).sum(axis=1)
+    assert np.allclose(momentum_change, cforce.sum(axis=1), rtol=0, atol=1e-10)
+
+
+BAD_CONTACT = [
+    ({"method": 3}, "contact.method: must be none, 1 or 2"),
+    ({"method": 2, "friction": -0.1}, "contact.friction: must be >= 0"),
+    ({"method": 2, "pairs": [{"bodies": ["left", "ghost"]}]},
+     "contact.pairs[0].bodies[1]: unknown body 'ghost'"),
+    ({"method": 2, "pairs": [{"bodies": ["left", "right"], "friction": -1}]},
+     "contact.pairs[0].friction: must be >= 0"),
+    ({"method": 2, "pairs": [{"bodies": ["left", "right"], "normal": "plate"}]},
+     "contact.pairs[0].normal: must be average, stiffer or one of the pair's bodies"),
+    ({"method": 2, "pairs": [{"bodies": ["left", "left"]}]},
+     "contact.pairs[0].bodies: a body cannot be in contact with itself"),
+]
+
+
+@pytest.mark.parametrize("contact, message", BAD_CONTACT)
+def test_bad_contact_input_names_the_key(tmp_path, contact, message):
+    with open(BLOCKS, encoding="utf-8") as f:
+        tree = yaml.safe_load(f)
+    tree["contact"] = contact
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump(tree))
+    with pytest.raises(CaseError) as info:
+        load_case(path)
+    assert any(line.startswith(message) for line in info.value.problems), info.value.problems
