@@ -45,7 +45,7 @@ def test_particle_to_grid_conserves_mass_and_momentum():
     b = block()
     nodal = np.zeros((b.n_nodes, mpm.NODAL_COMPONENTS))
     mpm.particles_to_grid(x, v, mass, np.zeros(n, np.int32), np.zeros(1, np.bool_),
-                          np.zeros(3), 1.0, b.lo, b.strides, nodal)
+                          np.zeros(3), 1.0, b.lo, b.strides, nodal, np.zeros(n, np.int32), 0)
     assert nodal[:, 0].sum() == pytest.approx(mass.sum(), rel=1e-13)
     assert nodal[:, 1:4].sum(axis=0) == pytest.approx(mass @ v, rel=1e-12, abs=1e-12)
 
@@ -83,7 +83,8 @@ def test_internal_forces_of_uniform_stress_cancel_inside():
         np.zeros(n, np.int32), np.full(n, -1, np.int32), np.zeros(n),
         np.array([code]), row[None, :], np.zeros(1, np.bool_), 1e-6, 1.0, np.zeros(3),
         np.zeros((1, 3)), np.zeros(3), 1.0, b.lo, b.strides, np.zeros((b.n_nodes, 3)), force,
-        False, np.full(1, -1, np.int64), np.zeros((0, 1, 3)), np.zeros((0, 1, 3)))
+        False, np.full(1, -1, np.int64), np.zeros((0, 1, 3)), np.zeros((0, 1, 3)),
+        np.zeros(n, np.int32), 0)
     assert np.all(stress == [100.0, 50.0, 20.0, 10.0, 5.0, 2.0])
     assert np.abs(force.sum(axis=0)).max() < 1e-10
     interior = force.reshape(5, 5, 5, 3)[1:-1, 1:-1, 1:-1]

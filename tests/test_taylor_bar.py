@@ -51,3 +51,60 @@ def test_two_ranks_give_the_one_rank_answer(one_rank, tmp_path):
     assert np.array_equal(a["id"], b["id"])
     assert np.abs(a["x"] - b["x"]).max() / PAPER_L < 1e-10
     assert read_summary(tmp_path)["ranks"] == 2
+
+
+# ---------------------------------------------------------------- tied interface grid
+
+# Seed 000 Table 3, TIGMPM: R = 2 (0.19 mm window, 0.38 outside): L = 16.29, D = 13.28;
+# R = 4 (0.19 / 0.76): 16.29, 13.24. The coarse test refines the bottom 3.8 mm at
+# 0.38 mm with 0.76 mm cells outside (R = 2, one level coarser than the paper's case I).
+TIED_SETS = ["params.ratio=2", "params.refined=3.8"]
+TIED_L, TIED_D = 16.29, 13.28
+
+
+@pytest.mark.parametrize("cell, ratio, count", [(0.38, 2, 696416), (0.76, 4, 614572)])
+def test_tied_grid_particle_counts_match_table_4(cell, ratio, count):
+    """Table 4's counts are those of a window over the bottom 11.4 mm (the case default)."""
+    from pmpm.case import fill_body, load_case
+    case = load_case(CASE, [f"params.cell={cell}", f"params.ratio={ratio}"])
+    assert len(fill_body(case["bodies"][0], case["grid"])[0]) == count
+
+
+@pytest.fixture(scope="module")
+def tied_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("taylor_tied")
+    run_pmpm(CASE, out, sets=TIED_SETS)
+    return out
+
+
+def test_tied_grid_foot_takes_the_refined_diameter(tied_run, one_rank):
+    """D is set by the refined window (seed 000 Sec. 5.2): wider than on the uniform
+    0.76 mm grid, near Table 3's TIGMPM value; L near it too; energy conserved."""
+    length, diameter = taylor_length_and_diameter(read_frame(tied_run)["x"])
+    _, coarse_diameter = taylor_length_and_diameter(read_frame(one_rank)["x"])
+    assert diameter > 1.01 * coarse_diameter
+    assert diameter == pytest.approx(TIED_D, rel=0.02)
+    assert length == pytest.approx(TIED_L, rel=0.02)
+    hist = np.genfromtxt(os.path.join(tied_run, "history.csv"), delimiter=",", names=True)
+    assert abs(hist["total"][-1] - hist["total"][0]) / hist["total"][0] < 0.01
+
+
+def test_coarse_particles_that_reach_the_window_are_split(tied_run):
+    summary = read_summary(tied_run)
+    n = summary["n_particles"]
+    assert n["initial"] == 43292
+    assert (n["final"] - n["initial"]) % 7 == 0 and n["final"] > 1.3 * n["initial"]
+    frame = read_frame(tied_run)
+    in_window = frame["x"][:, 2] < 3.8
+    assert np.allclose(frame["mass"][in_window], 8.93e-3 * 0.19 ** 3)
+    first = read_frame(tied_run, 0)
+    assert summary["bodies"]["bar"]["mass"] == pytest.approx(first["mass"].sum(), rel=1e-12)
+
+
+def test_tied_grid_on_two_ranks_gives_the_one_rank_answer(tmp_path):
+    sets = TIED_SETS + ["time.end=0.01", "decomposition.axis=z"]
+    run_pmpm(CASE, tmp_path / "one", sets=sets)
+    run_pmpm(CASE, tmp_path / "two", ranks=2, sets=sets)
+    a, b = read_frame(tmp_path / "one"), read_frame(tmp_path / "two")
+    assert np.array_equal(a["id"], b["id"])
+    assert np.abs(a["x"] - b["x"]).max() / PAPER_L < 1e-10

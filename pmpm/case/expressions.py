@@ -14,6 +14,7 @@ FUNCTIONS = {
     "sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan,
     "radians": math.radians, "degrees": math.degrees, "abs": abs,
     "exp": math.exp, "log": math.log, "min": min, "max": max,
+    "round": round, "floor": math.floor, "ceil": math.ceil,
 }
 CONSTANTS = {"pi": math.pi}
 RESERVED = set(FUNCTIONS) | set(CONSTANTS)

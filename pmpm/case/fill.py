@@ -30,15 +30,47 @@ def fill_body(body, grid, case_dir="."):
 
 
 def fill_geometry(geometry, grid, particles_per_cell, case_dir="."):
-    """(positions, volumes) of ``geometry`` filled at spacing grid.cell/particles_per_cell."""
-    spacing = grid["cell"] / particles_per_cell
+    """(positions, volumes) of ``geometry`` filled at spacing grid.cell/particles_per_cell,
+    and inside each of ``grid.windows`` at the window's spacing (cell / ratio /
+    particles_per_cell): the particles of a window are the lattice points of its spacing
+    inside it, those of the coarse grid the coarse lattice points outside every window."""
+    points = lattice_fill(geometry, grid, grid["cell"] / particles_per_cell, case_dir)
+    coarse = np.ones(len(points), dtype=bool)
+    for window in windows_of(grid):
+        coarse &= ~in_window(points, window, grid)
+    parts = [points[coarse]]
+    volumes = [np.full(len(parts[0]), (grid["cell"] / particles_per_cell) ** 3)]
+    for window in windows_of(grid):
+        spacing = grid["cell"] / window["ratio"] / particles_per_cell
+        fine = lattice_fill(geometry, grid, spacing, case_dir, clip=window)
+        parts.append(fine[in_window(fine, window, grid)])
+        volumes.append(np.full(len(parts[-1]), spacing ** 3))
+    return np.concatenate(parts), np.concatenate(volumes)
+
+
+def windows_of(grid):
+    return grid.get("windows") or []
+
+
+def in_window(points, window, grid):
+    """Points inside the window's box (min <= x < max), as the solver assigns them to a
+    grid: by their coarse cell."""
+    cells = np.floor((points - np.asarray(grid["min"])) / grid["cell"])
+    lo = np.rint((np.asarray(window["min"]) - grid["min"]) / grid["cell"])
+    hi = np.rint((np.asarray(window["max"]) - grid["min"]) / grid["cell"])
+    return np.all((cells >= lo) & (cells < hi), axis=1)
+
+
+def lattice_fill(geometry, grid, spacing, case_dir, clip=None):
+    """Lattice points of ``spacing`` inside ``geometry``, rotated and cut at symmetry
+    planes; ``clip`` (a box with min, max) limits the search for an unrotated body."""
     rotate = geometry.get("rotate")
     anchor = reference_point(geometry) if rotate else grid["min"]
-    points = points_inside(geometry, np.asarray(anchor, float), spacing, case_dir)
+    points = points_inside(geometry, np.asarray(anchor, float), spacing, case_dir,
+                           None if rotate else clip)
     if rotate:
         points = rotate_points(points, rotate)
-    points = clip_at_symmetry_planes(points, grid)
-    return points, np.full(len(points), spacing ** 3)
+    return clip_at_symmetry_planes(points, grid)
 
 
 def clip_at_symmetry_planes(points, grid):
@@ -56,15 +88,21 @@ def clip_at_symmetry_planes(points, grid):
     return points[keep]
 
 
-def points_inside(geometry, anchor, spacing, case_dir):
-    """Lattice points anchor + (i + 1/2) spacing inside the unrotated geometry."""
+def points_inside(geometry, anchor, spacing, case_dir, clip=None):
+    """Lattice points anchor + (i + 1/2) spacing inside the unrotated geometry (and inside
+    the box ``clip``, if given, with a margin of one spacing)."""
     if geometry["type"] == "mesh":
         tets = read_tets(os.path.join(case_dir, geometry["file"]),
                          geometry["scale"], geometry["translate"])
         return lattice_points_in_tets(tets, anchor, spacing)
     shape = make_shape(geometry)
-    kept = [points[shape.contains(points)]
-            for points in lattice_slabs(*shape.bounds(), anchor, spacing)]
+    lo, hi = (np.asarray(b, float) for b in shape.bounds())
+    if clip is not None:
+        lo = np.maximum(lo, np.asarray(clip["min"]) - spacing)
+        hi = np.minimum(hi, np.asarray(clip["max"]) + spacing)
+        if np.any(lo > hi):
+            return np.zeros((0, 3))
+    kept = [points[shape.contains(points)] for points in lattice_slabs(lo, hi, anchor, spacing)]
     return np.concatenate(kept + [np.zeros((0, 3))])
 
 

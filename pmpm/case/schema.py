@@ -5,6 +5,7 @@ import copy
 import math
 
 from .contact import check_contact, read_contact
+from .windows import check_window_bodies, check_windows, read_window
 from .bodies import check_bodies_in_grid, check_mesh_files, check_min_below_max, read_body
 from .errors import CaseError, Problems, join, unknown_name
 from .fields import (INVALID, Field, at_least, at_most, boolean, choice, defaults_of,
@@ -18,7 +19,8 @@ FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
 BOUNDARY = {face: Field(choice(("fixed", "slip", "free", "symmetry"), "boundary condition"),
                         "free") for face in FACES}
 GRID = {"min": Field(vector()), "max": Field(vector()), "cell": Field(number(greater(0))),
-        "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY))}
+        "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY)),
+        "windows": Field(list_of(read_window, 0, "window"), [])}
 TIME = {"end": Field(number(greater(0))), "cfl": Field(number(greater(0), at_most(1)), 0.5),
         "dt_max": Field(number(greater(0)), None)}
 OUTPUT = {"frames": Field(integer(at_least(1)), 10),
@@ -61,6 +63,7 @@ def read_grid(raw, path, problems):
     grid = read_mapping(raw, path, GRID, problems)
     if check_min_below_max(grid, path, problems) and valid(grid, "cell"):
         grid["max"] = rounded_max(grid["min"], grid["max"], grid["cell"])
+        check_windows(grid, path, problems)
     return grid
 
 
@@ -108,7 +111,7 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     case["params"] = params
     check_references(case, problems)
     bodies = [] if case["bodies"] is INVALID else case["bodies"]
-    if check_geometry and valid(case["grid"], "min", "max", "cell"):
+    if check_geometry and valid(case["grid"], "min", "max", "cell", "windows"):
         check_bodies_in_grid(bodies, case["grid"], case_dir, problems)
     else:
         check_mesh_files(bodies, case_dir, problems)
@@ -131,6 +134,7 @@ def check_references(case, problems):
     _check_output_times(case, problems)
     if all(valid(body, "name") for body in bodies):
         check_contact(case["contact"], body_names, problems)
+        check_window_bodies(case["grid"], body_names, problems)
     names_complete = all(valid(body, "name") for body in bodies)
     for i, load in enumerate(loads):
         if valid(load, "body") and names_complete and load["body"] not in body_names:

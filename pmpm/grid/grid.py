@@ -79,10 +79,12 @@ class LocalBlock:
         return nodal.reshape(tuple(self.shape[self.order]) + nodal.shape[1:])
 
     @classmethod
-    def for_rank(cls, slabs, rank, cell_min, cell_max):
-        """Block of ``rank`` given the global particle cell range [cell_min, cell_max]."""
+    def for_rank(cls, slabs, rank, cell_min, cell_max, ratio=1):
+        """Block of ``rank`` given the global particle cell range [cell_min, cell_max],
+        in the cell indices of a level refined ``ratio`` times (slab planes, on coarse
+        grid lines, are then at ``ratio`` times their coarse index)."""
         a = slabs.axis
-        first, last = slabs.owned(rank)
+        first, last = (ratio * bound for bound in slabs.owned(rank))
         lo = np.array(cell_min, dtype=np.int64)
         hi = np.array(cell_max, dtype=np.int64) + 1          # last node index, inclusive
         lo[a], hi[a] = max(first, cell_min[a]), min(last, cell_max[a] + 1)

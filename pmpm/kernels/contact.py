@@ -24,9 +24,12 @@ CNODAL, CVEL, CNEW = 7, 3, 6
 
 
 @njit(cache=True)
-def body_masks(x, body, origin, inv_h, lo, strides, mask):
-    """mask[n] |= 1 << body for the 8 nodes of every particle's cell."""
+def body_masks(x, body, origin, inv_h, lo, strides, mask, level, want):
+    """mask[n] |= 1 << body for the 8 nodes of the cell of every particle with
+    ``level[p] == want``."""
     for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
         base = 0
         for d in range(3):
             base += (np.int64(np.floor((x[p, d] - origin[d]) * inv_h)) - lo[d]) * strides[d]
@@ -57,9 +60,13 @@ def number_contact_nodes(mask, slot_of):
 
 
 @njit(cache=True)
-def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot_of, cnodal):
-    """Each body's mass, momentum and mass gradient at the contact nodes (Eqs. 27-28, 9)."""
+def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot_of, cnodal,
+                              level, want):
+    """Each body's mass, momentum and mass gradient at the contact nodes (Eqs. 27-28, 9),
+    from the particles with ``level[p] == want``."""
     for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
         s0 = (x[p, 0] - origin[0]) * inv_h
         s1 = (x[p, 1] - origin[1]) * inv_h
         s2 = (x[p, 2] - origin[2]) * inv_h

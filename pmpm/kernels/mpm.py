@@ -18,11 +18,15 @@ NODAL_COMPONENTS = 8
 
 
 @njit(cache=True)
-def particles_to_grid(x, v, mass, body, body_rigid, origin, inv_h, lo, strides, nodal):
-    """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
+def particles_to_grid(x, v, mass, body, body_rigid, origin, inv_h, lo, strides, nodal,
+                      level, want):
+    """Scatter mass and momentum (Eqs. 12-13) of the particles with ``level[p] == want``
+    (those of one grid of the hierarchy); rigid bodies also into the rigid slots."""
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
         trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
         m = mass[p]
         slot = 4 if body_rigid[body[p]] else 0
@@ -102,16 +106,19 @@ def integrate_nodes(nodal, force, gvel, dt, shape, lo, strides, n_cells, bc, m_t
 
 @njit(cache=True)
 def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gnew,
-                      contact, slot_of, cnew):
+                      contact, slot_of, cnew, level, want):
     """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
     accelerations (Eq. 16); rigid particles move with their own velocity. With
     ``contact``, a particle reads its own body's field ``cnew`` at contact nodes
-    (``slot_of[n] >= 0``; seed 001 Eqs. 33-34). Returns the index of the first particle
-    whose new position is not finite, else -1."""
+    (``slot_of[n] >= 0``; seed 001 Eqs. 33-34). Only particles with ``level[p] ==
+    want``. Returns the index of the first particle whose new position is not finite,
+    else -1."""
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     bad = -1
     for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
         if body_rigid[body[p]]:
             for d in range(3):
                 x[p, d] += dt * v[p, d]
@@ -151,11 +158,12 @@ def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gn
 def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, load, load_scale,
                       body_code, body_prm, body_rigid, dt, h, gravity, load_vec,
                       origin, inv_h, lo, strides, gvel, force, contact, slot_of, cvel,
-                      cforce):
+                      cforce, level, want):
     """Update every particle's stress from the nodal velocities (Eq. 29 and the material
     kernel), then scatter its internal and external force (Eqs. 31-32) in the same pass.
     With ``contact``, at contact nodes (``slot_of[n] >= 0``) a particle sees its own
-    body's velocity ``cvel`` and its force also goes to its body's ``cforce``.
+    body's velocity ``cvel`` and its force also goes to its body's ``cforce``. Only
+    particles with ``level[p] == want``; ``h`` is that grid's cell size.
 
     Returns
     -------
@@ -168,6 +176,8 @@ def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, l
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
         b = body[p]
         if body_rigid[b]:          # moves with its own velocity, which limits the step too
             fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
@@ -233,13 +243,10 @@ def cell_keys(x, origin, inv_h, n_cells):
 
 
 @njit(cache=True)
-def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner, span):
-    """Owner rank of every particle (-1 when it left the grid box) and the range of
-    coarse cells the particles inside occupy: span[:3] = -lowest, span[3:] = highest
-    (so that one MAX reduction over ranks gives both). Returns the number outside."""
+def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner):
+    """Owner rank of every particle (-1 when it left the grid box). Returns the number
+    outside."""
     outside = 0
-    for d in range(3):
-        span[d] = span[3 + d] = -(2.0 ** 62)
     n_ranks = bounds.shape[0] - 1
     for p in range(x.shape[0]):
         c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
@@ -250,12 +257,33 @@ def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner, span):
             owner[p] = -1
             outside += 1
             continue
-        c = (c0, c1, c2)
-        for d in range(3):
-            span[d] = max(span[d], -c[d])
-            span[3 + d] = max(span[3 + d], c[d])
+        c = (c0, c1, c2)[axis]
         r = 0
-        while r < n_ranks - 1 and c[axis] >= bounds[r + 1]:
+        while r < n_ranks - 1 and c >= bounds[r + 1]:
             r += 1
         owner[p] = r
     return outside
+
+
+@njit(cache=True)
+def level_spans(x, level, origin, inv_h, n_cells, ratios, inv_hs, span):
+    """The range of cells the particles of each grid level occupy, in that level's cell
+    indices (``inv_hs[l]``: 1 / its cell size, ``ratios[l]``: its ratio): span[6 l : 6 l + 3] = -lowest,
+    span[6 l + 3 : 6 l + 6] = highest (so that one MAX reduction over ranks gives both;
+    -2^62 where a level has no particle). Particles outside the grid box are left out."""
+    for i in range(span.shape[0]):
+        span[i] = -(2.0 ** 62)
+    for p in range(x.shape[0]):
+        base = 6 * level[p]
+        r = ratios[level[p]]
+        outside = False
+        for d in range(3):
+            if np.floor((x[p, d] - origin[d]) * inv_h) < 0 or \
+                    np.floor((x[p, d] - origin[d]) * inv_h) >= n_cells[d]:
+                outside = True
+        if outside:
+            continue
+        for d in range(3):
+            c = min(np.floor((x[p, d] - origin[d]) * inv_hs[level[p]]), n_cells[d] * r - 1.0)
+            span[base + d] = max(span[base + d], -c)
+            span[base + 3 + d] = max(span[base + 3 + d], c)

@@ -22,6 +22,7 @@ COLUMNS = {
     "id": (np.int64, 1),
     "body": (np.int32, 1),
     "load": (np.int32, 1),
+    "refine": (np.int32, 1),
 }
 
 IDENTITY9 = np.eye(3).reshape(9)
@@ -39,6 +40,8 @@ class Particles:
     """
 
     def __init__(self, columns):
+        if "refine" not in columns and "mass" in columns:    # checkpoints before windows
+            columns = dict(columns, refine=np.ones(len(columns["mass"]), np.int32))
         missing = set(COLUMNS) - set(columns)
         if missing:
             raise ValueError(f"particle columns missing: {sorted(missing)}")

@@ -28,8 +28,9 @@ def read_summary(out_dir):
         return json.load(f)
 
 
-def axial_profiles(out_dir, times, axis=0, tol=1e-9):
-    """{time: (x_axis, sigma_axis)} sorted along ``axis`` for the frames at ``times``."""
+def axial_profiles(out_dir, times, axis=0, tol=1e-9, volumes=False):
+    """{time: (x_axis, sigma_axis)} sorted along ``axis`` for the frames at ``times``;
+    with ``volumes``, {time: (x_axis, sigma_axis, particle volume)}."""
     result = {}
     with h5py.File(os.path.join(out_dir, "particles.h5"), "r") as f:
         for name in f["frames"]:
@@ -40,4 +41,7 @@ def axial_profiles(out_dir, times, axis=0, tol=1e-9):
                     x, s = group["x"][:, axis], group["stress"][:, axis]
                     order = np.argsort(x, kind="stable")
                     result[target] = (x[order], s[order])
+                    if volumes:
+                        vol = group["mass"][:] / group["density"][:]
+                        result[target] += (vol[order],)
     return result

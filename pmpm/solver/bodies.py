@@ -64,6 +64,7 @@ def _body_columns(index, body, table, positions, volumes):
     cols["temp"][:] = prm[layout.T_ROOM]
     cols["body"][:] = index
     cols["load"][:] = -1
+    cols["refine"][:] = 1
     return cols
 
 

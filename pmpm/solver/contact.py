@@ -6,6 +6,7 @@ import numpy as np
 from ..comm import sum_shared_planes
 from ..comm.exchange import or_shared_planes
 from ..kernels import contact as kc
+from ..kernels import tied
 from ..materials import layout
 
 MAX_BODIES = 62          # one bit per body in the int64 node masks
@@ -80,11 +81,15 @@ class ContactFields:
         self.slot_nodes = np.zeros(0, np.int64)
         self.empty = np.zeros((0, 1, 6))
 
-    def find_contact_nodes(self, particles, grid, block):
+    def find_contact_nodes(self, particles, grid, block, level_of, want, ties):
+        """Nodes that particles of two or more bodies reach, tied slaves left out (they
+        follow their masters)."""
         mask = np.zeros(block.n_nodes, np.int64)
-        kc.body_masks(particles.x, particles.body, grid.origin, 1.0 / grid.h, block.lo,
-                      block.strides, mask)
+        kc.body_masks(particles.x, particles.body, grid.origin, grid.inv_h, block.lo,
+                      block.strides, mask, level_of, want)
         or_shared_planes(self.world, block.shared_planes, block.as_planes(mask))
+        if ties is not None:
+            tied.clear_slave_slots(ties.slaves, ties.count, mask)
         self.slot_of = np.empty(block.n_nodes, np.int64)
         self.slot_nodes = kc.number_contact_nodes(mask, self.slot_of)
         self.plane_slots = self._plane_slot_ranges(block)
@@ -107,12 +112,15 @@ class ContactFields:
         flat = (self.work.zeros if zero else self.work.empty)(name, rows, width * n_bodies)
         return flat.reshape(rows, n_bodies, width)
 
-    def map_particles(self, particles, grid, block, n_bodies):
+    def map_particles(self, particles, grid, block, n_bodies, level_of, want, ties=None):
+        """Per-body mass, momentum and mass gradient at the contact nodes of one grid
+        level (``grid``: a ``pmpm.grid.Level``) from its particles (``level_of == want``)."""
         p = particles
-        self.find_contact_nodes(p, grid, block)
+        self.find_contact_nodes(p, grid, block, level_of, want, ties)
         self.cnodal = self.slot_array("cnodal", kc.CNODAL, n_bodies)
-        kc.contact_particles_to_grid(p.x, p.v, p.mass, p.body, grid.origin, 1.0 / grid.h,
-                                     block.lo, block.strides, self.slot_of, self.cnodal)
+        kc.contact_particles_to_grid(p.x, p.v, p.mass, p.body, grid.origin, grid.inv_h,
+                                     block.lo, block.strides, self.slot_of, self.cnodal,
+                                     level_of, want)
         self.sum_on_shared_planes(block, self.cnodal)
 
     def start_velocities(self, gvel, bodies, grid, block):

@@ -175,7 +175,7 @@ class Runner:
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
                    "frame_index": self.frame_index, "fastest": sim.stepper.fastest,
                    "lost": int(sim.stepper.lost), "step_wall": self.step_wall,
-                   "wall_s": self.wall()}
+                   "wall_s": self.wall(), "refine": sim.stepper.refiner.state()}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
         self.last_checkpoint = sim.step_count
 

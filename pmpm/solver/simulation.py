@@ -2,7 +2,8 @@
 import numpy as np
 
 from ..comm.slabs import Slabs, choose_slabs
-from ..grid import CoarseGrid
+from ..grid import CoarseGrid, Window, window_bounds
+from ..kernels import tied
 from ..particles import Particles
 from .bodies import BodyTable, assign_loads, build_particles, fill_positions
 from .errors import SetupError
@@ -12,13 +13,16 @@ from .step import Stepper
 class Simulation:
     """Everything one rank needs to step a case: grid, slabs, its particles, bodies."""
 
-    def __init__(self, world, case, grid, slabs, particles, bodies):
+    def __init__(self, world, case, grid, slabs, particles, bodies, id_base=None):
         self.world, self.case, self.grid = world, case, grid
         self.bodies = bodies
-        mean_mass = world.sum(float(particles.mass.sum())) / max(world.sum(particles.n), 1)
+        n_total = max(world.sum(particles.n), 1)
+        mean_mass = world.sum(float(particles.mass.sum())) / n_total
+        self.windows = make_windows(case, grid, bodies.names)
         self.stepper = Stepper(world, grid, slabs, particles, bodies,
                                case.get("gravity", [0, 0, 0]), 1e-12 * mean_mass,
-                               case.get("contact"))
+                               case.get("contact"), self.windows,
+                               n_total if id_base is None else id_base)
         self.loads = case.get("loads", [])
         self.time, self.step_count = 0.0, 0
 
@@ -40,6 +44,7 @@ class Simulation:
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
         del x
         particles = build_particles(case, bodies, filled, mine)
+        mark_refined(particles, make_windows(case, grid, bodies.names), grid)
         problems = assign_loads(case, particles, world.sum)
         if problems:
             raise SetupError(problems)
@@ -54,9 +59,13 @@ class Simulation:
         if len(slabs.bounds) != world.size + 1:
             counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]])
-        sim = cls(world, case, grid, slabs, particles, bodies)
+        refined = scalars.get("refine")
+        sim = cls(world, case, grid, slabs, particles, bodies,
+                  refined["id_base"] if refined else None)
+        if refined:
+            sim.stepper.refiner.restore(refined)
         sim.stepper.send_to_owners(slabs)
-        sim.stepper.cell_range = sim.stepper.global_cell_range()
+        sim.stepper.cell_ranges = sim.stepper.global_cell_ranges()
         sim.time, sim.step_count = scalars["time"], scalars["step"]
         return sim
 
@@ -65,7 +74,8 @@ class Simulation:
         p = self.particles
         c = np.array([self.bodies.initial_wave_speed(b) for b in range(len(self.bodies.names))])
         speeds = c[p.body] + np.linalg.norm(p.v, axis=1) if p.n else np.zeros(1)
-        return self.world.max(float(speeds.max()))
+        finest = max([w.ratio for w in self.windows] + [1])
+        return self.world.max(float(speeds.max())) * finest
 
     def load_vectors(self, time):
         """Load vector of every load at ``time`` (value times its time function)."""
@@ -74,6 +84,22 @@ class Simulation:
             vec[i] = np.asarray(load["value"], dtype=np.float64) * time_factor(
                 load.get("time_function", {"type": "constant"}), time)
         return vec
+
+
+def make_windows(case, grid, body_names):
+    return [Window.from_case(w, grid, body_names) for w in case["grid"].get("windows", [])]
+
+
+def mark_refined(particles, windows, grid):
+    """``refine`` of the particles filled inside a window: its ratio (they were filled at
+    its spacing)."""
+    if not windows:
+        return
+    level = np.zeros(particles.n, np.int32)
+    lo, hi = window_bounds(windows)
+    tied.particle_levels(particles.x, grid.origin, 1.0 / grid.h, lo, hi, level)
+    ratios = np.array([1] + [w.ratio for w in windows], np.int32)
+    particles.refine[:] = ratios[level]
 
 
 def decompose(world, grid, x, case):

@@ -1,32 +1,18 @@
-"""One explicit update-stress-first step (DESIGN.md "One time step"), phase by phase."""
+"""One explicit update-stress-first step (DESIGN.md "One time step"), phase by phase,
+over the coarse grid and any refined windows tied to it (seed 000 Sec. 4)."""
 import numpy as np
 
-from ..comm import sum_shared_planes, migrate
+from ..comm import migrate
 from ..comm.slabs import balanced_bounds, Slabs
-from ..grid import LocalBlock
-from ..kernels import mpm
-from .contact import ContactFields, ContactRules
+from ..grid import Level, window_bounds
+from ..kernels import mpm, tied
+from .contact import ContactRules
 from .errors import SolverError
+from .levels import Hierarchy, level_spans
+from .refine import Refiner
+from .workspace import Workspace
 
-
-class Workspace:
-    """Nodal arrays reused from step to step (grown, never shrunk)."""
-
-    def __init__(self):
-        self._buffers = {}
-
-    def zeros(self, name, rows, width):
-        view = self.empty(name, rows, width)
-        view.fill(0.0)
-        return view
-
-    def empty(self, name, rows, width):
-        """Uninitialised rows, for arrays a kernel overwrites entirely."""
-        buf = self._buffers.get(name)
-        if buf is None or buf.shape[0] < rows:
-            buf = np.empty((max(rows, 1024) * 5 // 4, width))
-            self._buffers[name] = buf
-        return buf[:rows]
+__all__ = ["Stepper", "Workspace"]
 
 
 class Stepper:
@@ -40,114 +26,163 @@ class Stepper:
     particles : particles.Particles
     bodies : solver.bodies.BodyTable
     gravity : (3,) array
+    m_tiny : float   nodal mass below which a node counts as empty
+    contact : dict   the case's ``contact`` section
+    windows : list of grid.Window   refined windows (seed 000 Sec. 3)
+    id_base : int    above every particle id at the start (split particles' ids)
     """
 
-    def __init__(self, world, grid, slabs, particles, bodies, gravity, m_tiny, contact=None):
+    def __init__(self, world, grid, slabs, particles, bodies, gravity, m_tiny, contact=None,
+                 windows=(), id_base=0):
         self.world, self.grid, self.slabs = world, grid, slabs
         self.particles, self.bodies = particles, bodies
         self.gravity = np.asarray(gravity, dtype=np.float64)
         self.m_tiny = m_tiny
-        self.work = Workspace()
         self.load_vec = np.zeros((1, 3))
         self.fastest = 0.0
         self.lost = 0
-        self.block = None
         self.fault = None
-        self.cell_range = self.global_cell_range()
         self.rules = ContactRules(contact or {}, bodies)
-        self.contact = ContactFields(self.rules, world, self.work, m_tiny)
+        self.windows = list(windows)
+        self.levels = [Level(grid)] + [Level(grid, w) for w in self.windows]
+        self.grids = Hierarchy(self.levels, self.rules, world, m_tiny)
+        self.refiner = Refiner(self, id_base)
+        self.level_of = np.zeros(0, np.int32)
+        self.cell_ranges = self.global_cell_ranges()
 
     # -- the step ---------------------------------------------------------------
     def step(self, dt):
         self.fault = None
-        self.build_block()
+        self.assign_levels()
+        self.build_blocks()
         self.map_particles_to_grid()
         self.nodal_velocities_with_boundaries()
         self.update_stress_and_nodal_forces(dt)
         self.integrate_nodal_momentum(dt)
         self.update_particles(dt)
+        self.refiner.move_windows_and_split()
         self.migrate_and_check()
 
-    def build_block(self):
-        lo, hi = self.cell_range
-        self.block = LocalBlock.for_rank(self.slabs, self.world.rank, lo, hi)
+    def assign_levels(self):
+        """The grid each particle maps to: the window holding it, else the coarse grid."""
+        p = self.particles
+        if len(self.level_of) != p.n:
+            self.level_of = np.zeros(p.n, np.int32)
+        if self.windows:
+            lo, hi = window_bounds(self.windows)
+            tied.particle_levels(p.x, self.grid.origin, 1.0 / self.grid.h, lo, hi,
+                                 self.level_of)
+        return self.level_of
+
+    def build_blocks(self):
+        for state, cell_range in zip(self.grids, self.cell_ranges):
+            state.build_block(self.slabs, self.world.rank, cell_range)
 
     def map_particles_to_grid(self):
-        p, b = self.particles, self.block
-        self.nodal = self.work.zeros("nodal", b.n_nodes, mpm.NODAL_COMPONENTS)
-        mpm.particles_to_grid(p.x, p.v, p.mass, p.body, self.bodies.rigid, self.grid.origin,
-                              1.0 / self.grid.h, b.lo, b.strides, self.nodal)
-        sum_shared_planes(self.world, b.shared_planes, b.as_planes(self.nodal))
+        """Particle-to-grid on every level (Eqs. 12-13), the slaves' mass and momentum to
+        their masters (Eqs. 17, 20), then the sums over shared slab planes."""
+        p, nb = self.particles, len(self.bodies.names)
+        for s in self.grids:
+            b, lv = s.block, s.level
+            s.nodal = s.work.zeros("nodal", b.n_nodes, mpm.NODAL_COMPONENTS)
+            mpm.particles_to_grid(p.x, p.v, p.mass, p.body, self.bodies.rigid, lv.origin,
+                                  lv.inv_h, b.lo, b.strides, s.nodal, self.level_of, s.index)
+        self.grids.tie_windows(p.x, self.level_of)
+        self.grids.sum_shared("nodal")
         if self.rules.active:
-            self.contact.map_particles(p, self.grid, b, len(self.bodies.names))
+            for s in self.grids:
+                s.contact.map_particles(p, s.level, s.block, nb, self.level_of, s.index,
+                                        s.ties)
 
     def nodal_velocities_with_boundaries(self):
-        b = self.block
-        self.gvel = self.work.empty("gvel", b.n_nodes, 3)
-        mpm.nodal_velocities(self.nodal, b.shape, b.lo, b.strides, self.grid.n_cells,
-                             self.grid.boundary, self.m_tiny, self.gvel)
+        """Nodal velocities with the boundary conditions; slaves from masters (Eq. 22);
+        method 2's contact correction (seed 001 Eqs. 23-25)."""
+        for s in self.grids:
+            b, lv = s.block, s.level
+            s.gvel = s.work.empty("gvel", b.n_nodes, 3)
+            mpm.nodal_velocities(s.nodal, b.shape, b.lo, b.strides, lv.n_cells, lv.boundary,
+                                 self.m_tiny, s.gvel)
+        self.grids.slave_velocities()
         if self.rules.active:
-            self.contact.start_velocities(self.gvel, self.bodies, self.grid, b)
+            for s in self.grids:
+                s.contact.start_velocities(s.gvel, self.bodies, s.level, s.block)
 
     def update_stress_and_nodal_forces(self, dt):
-        p, b, g = self.particles, self.block, self.grid
-        self.force = self.work.zeros("force", b.n_nodes, 3)
-        self.fastest, bad = mpm.stress_and_forces(
-            p.x, p.v, p.mass, p.rho, p.stress, p.F, p.eps_p, p.e_int, p.temp, p.q, p.body,
-            p.load, p.load_scale, self.bodies.codes, self.bodies.params, self.bodies.rigid,
-            dt, g.h, self.gravity, self.load_vec, g.origin, 1.0 / g.h, b.lo, b.strides,
-            self.gvel, self.force, *self.contact_arrays("cvel", "cforce"))
-        self.note_fault(bad, "constitutive update failed (NaN, non-convergence or "
-                             "non-positive density)")
-        sum_shared_planes(self.world, b.shared_planes, b.as_planes(self.force))
+        """Stress update and nodal forces on every level; slave forces to their masters
+        (Eq. 18); the sums over shared slab planes. The wave speed for the next step is
+        kept as the speed that gives the same Courant number on the coarse grid."""
+        p = self.particles
+        self.fastest = 0.0
+        for s in self.grids:
+            b, lv = s.block, s.level
+            s.force = s.work.zeros("force", b.n_nodes, 3)
+            fastest, bad = mpm.stress_and_forces(
+                p.x, p.v, p.mass, p.rho, p.stress, p.F, p.eps_p, p.e_int, p.temp, p.q,
+                p.body, p.load, p.load_scale, self.bodies.codes, self.bodies.params,
+                self.bodies.rigid, dt, lv.h, self.gravity, self.load_vec, lv.origin,
+                lv.inv_h, b.lo, b.strides, s.gvel, s.force,
+                *self.contact_arrays(s, "cvel", "cforce"), self.level_of, s.index)
+            self.fastest = max(self.fastest, fastest * lv.ratio)
+            self.note_fault(bad, "constitutive update failed (NaN, non-convergence or "
+                                 "non-positive density)")
+        self.grids.slave_forces_to_masters()
+        self.grids.sum_shared("force")
 
     def integrate_nodal_momentum(self, dt):
-        b = self.block
-        self.gnew = self.work.empty("gnew", b.n_nodes, 6)
-        mpm.integrate_nodes(self.nodal, self.force, self.gvel, dt, b.shape, b.lo, b.strides,
-                            self.grid.n_cells, self.grid.boundary, self.m_tiny, self.gnew)
-        if self.rules.active:
-            self.contact.end_velocities(self.gnew, self.bodies, dt, self.grid, b)
+        """Leap-frog on the nodes of every level (Eq. 14); contact forces (seed 001 Eqs.
+        11-22); slaves follow their masters (Eqs. 23-24)."""
+        for s in self.grids:
+            b, lv = s.block, s.level
+            s.gnew = s.work.empty("gnew", b.n_nodes, 6)
+            mpm.integrate_nodes(s.nodal, s.force, s.gvel, dt, b.shape, b.lo, b.strides,
+                                lv.n_cells, lv.boundary, self.m_tiny, s.gnew)
+            if self.rules.active:
+                s.contact.end_velocities(s.gnew, self.bodies, dt, lv, b)
+        self.grids.slave_motion()
 
     def update_particles(self, dt):
-        p, b, g = self.particles, self.block, self.grid
-        bad = mpm.grid_to_particles(p.x, p.v, p.body, self.bodies.rigid, dt, g.origin,
-                                    1.0 / g.h, b.lo, b.strides, self.gnew,
-                                    *self.contact_arrays("cnew"))
-        self.note_fault(bad, "position is not finite")
+        p = self.particles
+        for s in self.grids:
+            b, lv = s.block, s.level
+            bad = mpm.grid_to_particles(p.x, p.v, p.body, self.bodies.rigid, dt, lv.origin,
+                                        lv.inv_h, b.lo, b.strides, s.gnew,
+                                        *self.contact_arrays(s, "cnew"), self.level_of,
+                                        s.index)
+            self.note_fault(bad, "position is not finite")
 
     def migrate_and_check(self):
         """Drop particles that left the grid box, send the rest to their slab owners, and
-        agree on the next step's cell range and wave speed: one MAX reduction, plus an
+        agree on the next step's cell ranges and wave speed: one MAX reduction, plus an
         Alltoallv only when some particle changes rank."""
         p, g, slabs = self.particles, self.grid, self.slabs
         owner = np.empty(p.n, np.int64)
-        local = np.empty(10)
         outside = mpm.classify_particles(p.x, g.origin, 1.0 / g.h, g.n_cells, slabs.axis,
-                                         slabs.bounds, owner, local[:6])
-        local[6] = self.fastest
-        local[7] = float(outside)
-        local[8] = float(np.count_nonzero((owner != self.world.rank) & (owner >= 0)))
-        local[9] = 1.0 if self.fault else 0.0
+                                         slabs.bounds, owner)
+        spans = level_spans(p.x, self.assign_levels(), g, self.levels)
+        local = np.concatenate([[self.fastest, float(outside),
+                                 float(np.count_nonzero((owner != self.world.rank)
+                                                        & (owner >= 0))),
+                                 1.0 if self.fault else 0.0], spans])
         glob = self.world.max(local)
-        if glob[9] > 0:
+        if glob[3] > 0:
             raise SolverError(self.world.first_message(self.fault))
-        self.fastest = glob[6]
-        self.cell_range = _cell_range(glob[:6])
-        if glob[7] > 0:
+        self.fastest = glob[0]
+        self.cell_ranges = _cell_ranges(glob[4:])
+        if glob[1] > 0:
             self.lost += self.world.sum(outside)
             p.take(owner >= 0)
             owner = owner[owner >= 0]
-        if glob[8] > 0:
+        if glob[2] > 0:
             migrate(self.world, owner, p.columns(), check=False, replace=p.replace_column)
 
     # -- helpers ----------------------------------------------------------------
-    def contact_arrays(self, *names):
+    def contact_arrays(self, state, *names):
         """(contact on?, slot_of, the named per-slot arrays) for the particle kernels;
         empty stand-ins when contact is off."""
+        c = state.contact
         if not self.rules.active:
-            return (False, self.contact.slot_of) + (self.contact.empty,) * len(names)
-        return (True, self.contact.slot_of) + tuple(getattr(self.contact, n) for n in names)
+            return (False, c.slot_of) + (c.empty,) * len(names)
+        return (True, c.slot_of) + tuple(getattr(c, n) for n in names)
 
     def send_to_owners(self, slabs):
         p = self.particles
@@ -155,14 +190,10 @@ class Stepper:
         owners = slabs.owner_of_cells(cells).astype(np.int64)
         migrate(self.world, owners, p.columns(), replace=p.replace_column)
 
-    def global_cell_range(self):
-        """Lowest and highest coarse cell holding a particle on any rank."""
-        p = self.particles
-        local = np.full(6, -(2.0 ** 62))
-        if p.n:
-            cells = self.grid.cells_of(p.x)
-            local[:3], local[3:] = -cells.min(axis=0), cells.max(axis=0)
-        return _cell_range(self.world.max(local))
+    def global_cell_ranges(self):
+        """Per level, the lowest and highest level cell holding a particle on any rank."""
+        spans = level_spans(self.particles.x, self.assign_levels(), self.grid, self.levels)
+        return _cell_ranges(self.world.max(spans))
 
     def note_fault(self, bad, what):
         """Remember this rank's first bad particle of the step; the end-of-step reduction
@@ -185,7 +216,7 @@ class Stepper:
             return imbalance, False
         self.slabs = new
         self.send_to_owners(new)
-        self.cell_range = self.global_cell_range()
+        self.cell_ranges = self.global_cell_ranges()
         return imbalance, True
 
     def slab_axis_histogram(self):
@@ -201,9 +232,14 @@ class Stepper:
         p.take(np.argsort(keys, kind="stable"))
 
 
-def _cell_range(span):
-    """(lowest, highest) cell from a reduced span (-lowest, highest); empty if none."""
-    lo, hi = (-span[:3]).astype(np.int64), span[3:6].astype(np.int64)
-    if np.any(hi < lo):
-        return np.zeros(3, np.int64), -np.ones(3, np.int64)
-    return lo, hi
+def _cell_ranges(spans):
+    """Per level, (lowest, highest) cell from reduced spans (-lowest, highest) * levels;
+    an empty range (highest < lowest) where a level has no particle."""
+    ranges = []
+    for start in range(0, len(spans), 6):
+        span = spans[start:start + 6]
+        lo, hi = (-span[:3]).astype(np.int64), span[3:6].astype(np.int64)
+        if np.any(hi < lo):
+            lo, hi = np.zeros(3, np.int64), -np.ones(3, np.int64)
+        ranges.append((lo, hi))
+    return ranges

@@ -1,0 +1,141 @@
+"""The tied interface between a refined window and the coarse grid (seed 000 Secs. 3.1-3.2).
+
+A window node on one of the window's faces is a *slave* candidate. It lies on the face,
+edge or corner of the coarse cells around it; its *master* nodes are the nodes of that
+coarse entity, with the coarse trilinear weights at the slave's position (on a face they
+are the bilinear phi_m of Eq. 19; on an edge they are linear, at a coarse node 1). The
+weights do not depend on which of the coarse cells sharing the entity is taken as the
+master cell, so no cell needs to be chosen. A candidate is *tied* when every master node
+with a non-zero weight belongs to a coarse cell holding coarse particles (the search of
+Sec. 3.2, on nodes: ``occupied``), so a free window face stays free.
+
+Ties are stored as rows ``masters`` (n, 8) (local coarse node, -1 if none) and
+``weights`` (n, 8) beside ``slaves`` (n,) (local window node).
+"""
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def particle_levels(x, origin, inv_h, win_lo, win_hi, level):
+    """level[p] = 1 + k when particle p lies in window k (coarse cells win_lo[k] <= c <
+    win_hi[k]), else 0 (the coarse grid)."""
+    for p in range(x.shape[0]):
+        level[p] = 0
+        for k in range(win_lo.shape[0]):
+            inside = True
+            for d in range(3):
+                c = np.floor((x[p, d] - origin[d]) * inv_h)
+                if c < win_lo[k, d] or c >= win_hi[k, d]:
+                    inside = False
+                    break
+            if inside:
+                level[p] = 1 + k
+                break
+
+
+@njit(cache=True)
+def mark_occupied(x, level, origin, inv_h, lo, strides, occupied):
+    """occupied[n] = 1 for the 8 coarse nodes of every coarse cell holding a particle of
+    the coarse grid (level 0)."""
+    for p in range(x.shape[0]):
+        if level[p] != 0:
+            continue
+        base = 0
+        for d in range(3):
+            base += (np.int64(np.floor((x[p, d] - origin[d]) * inv_h)) - lo[d]) * strides[d]
+        for a in range(2):
+            for b in range(2):
+                for c in range(2):
+                    occupied[base + a * strides[0] + b * strides[1] + c * strides[2]] = 1
+
+
+@njit(cache=True)
+def find_ties(shape, lo, strides, face_lo, face_hi, ratio, c_shape, c_lo, c_strides,
+              occupied, slaves, masters, weights):
+    """Tied slave nodes of a window block. ``shape, lo, strides``: the window block (level
+    node indices); ``face_lo, face_hi``: level node index of the window's faces;
+    ``c_shape, c_lo, c_strides``: the coarse block. Fills the first rows of ``slaves``,
+    ``masters``, ``weights`` and returns how many."""
+    count = 0
+    g = np.empty(3, np.int64)
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            for k in range(shape[2]):
+                g[0], g[1], g[2] = lo[0] + i, lo[1] + j, lo[2] + k
+                on_face = False
+                for d in range(3):
+                    if g[d] == face_lo[d] or g[d] == face_hi[d]:
+                        on_face = True
+                if not on_face:
+                    continue
+                if _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters[count],
+                        weights[count]):
+                    slaves[count] = i * strides[0] + j * strides[1] + k * strides[2]
+                    count += 1
+    return count
+
+
+@njit(cache=True)
+def _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters, weights):
+    """Master nodes and weights of the slave at level node ``g``; False if not tied."""
+    cell = np.empty(3, np.int64)
+    frac = np.empty(3)
+    for d in range(3):
+        cell[d] = g[d] // ratio
+        frac[d] = (g[d] - cell[d] * ratio) / ratio
+    m = 0
+    for a in range(2):
+        for b in range(2):
+            for c in range(2):
+                w = ((frac[0] if a else 1.0 - frac[0]) * (frac[1] if b else 1.0 - frac[1])
+                     * (frac[2] if c else 1.0 - frac[2]))
+                masters[m], weights[m] = -1, 0.0
+                if w > 0.0:
+                    li, lj, lk = cell[0] + a - c_lo[0], cell[1] + b - c_lo[1], cell[2] + c - c_lo[2]
+                    if (li < 0 or lj < 0 or lk < 0 or li >= c_shape[0] or lj >= c_shape[1]
+                            or lk >= c_shape[2]):
+                        return False
+                    n = li * c_strides[0] + lj * c_strides[1] + lk * c_strides[2]
+                    if occupied[n] == 0:
+                        return False
+                    masters[m], weights[m] = n, w
+                m += 1
+    return True
+
+
+@njit(cache=True)
+def slaves_to_masters(slaves, masters, weights, count, fine, coarse):
+    """coarse[m] += phi_m fine[s] for every tie: slave mass, momentum (Eqs. 17, 20) or
+    force (Eq. 18) added to the master nodes."""
+    for t in range(count):
+        s = slaves[t]
+        for k in range(8):
+            m = masters[t, k]
+            if m >= 0:
+                w = weights[t, k]
+                for c in range(fine.shape[1]):
+                    coarse[m, c] += w * fine[s, c]
+
+
+@njit(cache=True)
+def masters_to_slaves(slaves, masters, weights, count, coarse, fine):
+    """fine[s] = sum_m phi_m coarse[m]: slave velocity (Eq. 22) or end-of-step velocity
+    and acceleration (Eqs. 23-24) interpolated from the master nodes."""
+    for t in range(count):
+        s = slaves[t]
+        for c in range(fine.shape[1]):
+            fine[s, c] = 0.0
+        for k in range(8):
+            m = masters[t, k]
+            if m >= 0:
+                w = weights[t, k]
+                for c in range(fine.shape[1]):
+                    fine[s, c] += w * coarse[m, c]
+
+
+@njit(cache=True)
+def clear_slave_slots(slaves, count, mask):
+    """mask[s] = 0 at the tied slaves: they follow their masters, not a contact field."""
+    for t in range(count):
+        mask[slaves[t]] = 0

@@ -1,0 +1,66 @@
+"""Particle splitting (seed 000 Sec. 3.4): a coarse particle that enters a refined window
+becomes n^3 particles of the window's spacing.
+
+The parent stands for a cube of edge L0 = vol0^(1/3) in the initial configuration, which
+its deformation gradient F has carried to the current one. The children sit at the
+centres of the n^3 sub-cubes of that cube, mapped by F: x_child = x + F (offset L0), the
+offsets ((a + 1/2)/n - 1/2, ...) for a, b, c = 0..n-1. With F diagonal this is Eq. 25,
+L_i = L0 (1 + eps_i); F also carries shear and rotation. Mass, volume and the share of a
+load are divided among the children (the specific internal energy e_int, per unit mass,
+is then divided with the mass); stress, F, density, plastic strain, temperature and every
+other history variable are copied.
+
+Children get new global ids that depend only on the parent's id, so they are unique
+across ranks and the same on any number of ranks: ``id_base + parent_id * id_stride + k``
+(k = 0..n^3 - 1), with ``id_base`` above every id in use and ``id_stride`` at least the
+largest n^3.
+"""
+import numpy as np
+
+from .store import COLUMNS
+
+DIVIDED = ("mass", "vol0", "load_scale")
+
+
+def sub_cube_offsets(n):
+    """(n^3, 3) centres of the n^3 sub-cubes of the unit cube centred on the origin."""
+    centres = (np.arange(n) + 0.5) / n - 0.5
+    a, b, c = np.meshgrid(centres, centres, centres, indexing="ij")
+    return np.stack([a.ravel(), b.ravel(), c.ravel()], axis=1)
+
+
+def children_of(particles, parents, n, id_base, id_stride):
+    """Columns of the n^3 children of each particle in ``parents`` (int index array)."""
+    k = n ** 3
+    offsets = sub_cube_offsets(n)
+    edge = np.cbrt(particles.vol0[parents])
+    F = particles.F[parents].reshape(-1, 3, 3)
+    moved = np.einsum("pij,kj->pki", F, offsets) * edge[:, None, None]
+    children = {}
+    for name in COLUMNS:
+        column = np.repeat(getattr(particles, name)[parents], k, axis=0)
+        if name in DIVIDED:
+            column /= k
+        children[name] = column
+    children["x"] = (particles.x[parents][:, None, :] + moved).reshape(-1, 3)
+    children["id"] = (id_base + particles.id[parents][:, None] * id_stride
+                      + np.arange(k)[None, :]).reshape(-1)
+    children["refine"] = children["refine"] * n
+    return children
+
+
+def split(particles, parents, factors, id_base, id_stride):
+    """Replace each particle ``parents[i]`` by ``factors[i]^3`` children (factors >= 2).
+    The children go to the end of the store. Returns how many particles were added."""
+    parents = np.asarray(parents, np.int64)
+    factors = np.asarray(factors, np.int64)
+    if len(parents) == 0:
+        return 0
+    groups = [children_of(particles, parents[factors == n], int(n), id_base, id_stride)
+              for n in np.unique(factors)]
+    keep = np.ones(particles.n, dtype=bool)
+    keep[parents] = False
+    particles.take(keep)
+    for children in groups:
+        particles.append(children)
+    return int(sum(len(g["mass"]) for g in groups)) - len(parents)
