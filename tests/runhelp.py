@@ -10,9 +10,11 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 
 
-def run_pmpm(case, out, ranks=1, sets=(), timeout=900, check=True):
-    """Run ``case`` into ``out`` (overwriting); returns the CompletedProcess."""
-    cmd = [sys.executable, "-m", "pmpm", case, "--out", str(out), "--force", "--quiet"]
+def run_pmpm(case, out, ranks=1, sets=(), timeout=900, check=True, extra=()):
+    """Run ``case`` into ``out`` (overwriting, or continuing with ``extra=["--restart"]``);
+    returns the CompletedProcess."""
+    cmd = [sys.executable, "-m", "pmpm", case, "--out", str(out), "--quiet"]
+    cmd += list(extra) if "--restart" in extra else ["--force"] + list(extra)
     for item in sets:
         cmd += ["--set", item]
     if ranks > 1:

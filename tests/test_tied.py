@@ -270,3 +270,32 @@ def test_tied_wave_on_two_ranks_gives_the_one_rank_answer(tmp_path):
     ia, ib = np.argsort(a["id"]), np.argsort(b["id"])
     assert np.abs(a["x"][ia] - b["x"][ib]).max() < 1e-10 * 100
     assert np.abs(a["stress"][ia] - b["stress"][ib]).max() < 1e-8 * abs(LOAD)
+
+
+def test_readme_window_example_validates():
+    import pathlib
+    import re
+    text = (pathlib.Path(__file__).resolve().parent.parent / "README.md").read_text()
+    block = re.search(r"```yaml\n(.*?)```", text.split("#### `grid.windows`", 1)[1], re.S)
+    import yaml
+    grid = yaml.safe_load(block.group(1))["grid"]
+    raw = case_with_window()
+    raw["grid"] = grid
+    raw["bodies"][0]["geometry"]["max"] = [100, 6, 6]
+    case = validate_case(raw)
+    assert case["grid"]["windows"] == [{"min": [60.0, 0.0, 0.0], "max": [100.0, 6.0, 6.0],
+                                        "ratio": 4}]
+
+
+def test_restart_of_a_moving_window_run_ends_where_the_uninterrupted_one_does(tmp_path):
+    """The window's position, its carried-over residual and the followed centroid travel
+    in the checkpoint; split particles' ids come from the same base."""
+    run_pmpm(FOLLOW, tmp_path / "full")
+    cut = tmp_path / "cut"
+    run_pmpm(FOLLOW, cut, sets=["time.end=0.01"])            # a frame time of the full run
+    done = run_pmpm(FOLLOW, cut, sets=["time.end=0.03"], extra=["--restart"])
+    assert done.returncode == 0
+    a, b = read_frame(tmp_path / "full"), read_frame(cut)
+    assert np.array_equal(a["id"], b["id"])
+    assert np.abs(a["x"] - b["x"]).max() < 1e-12 * 24
+    assert read_summary(cut)["windows"] == read_summary(tmp_path / "full")["windows"]

@@ -50,17 +50,21 @@ def children_of(particles, parents, n, id_base, id_stride):
 
 
 def split(particles, parents, factors, id_base, id_stride):
-    """Replace each particle ``parents[i]`` by ``factors[i]^3`` children (factors >= 2).
-    The children go to the end of the store. Returns how many particles were added."""
+    """Replace each particle ``parents[i]`` by ``factors[i]^3`` children (factors >= 2):
+    the first child takes the parent's row, the others go to the end of the store (one
+    copy of the store per call). Returns how many particles were added."""
     parents = np.asarray(parents, np.int64)
     factors = np.asarray(factors, np.int64)
     if len(parents) == 0:
         return 0
-    groups = [children_of(particles, parents[factors == n], int(n), id_base, id_stride)
-              for n in np.unique(factors)]
-    keep = np.ones(particles.n, dtype=bool)
-    keep[parents] = False
-    particles.take(keep)
-    for children in groups:
-        particles.append(children)
-    return int(sum(len(g["mass"]) for g in groups)) - len(parents)
+    rest = {name: [] for name in COLUMNS}
+    for n in np.unique(factors):
+        group = parents[factors == n]
+        children = children_of(particles, group, int(n), id_base, id_stride)
+        first = np.arange(len(group)) * int(n) ** 3
+        for name, column in children.items():
+            getattr(particles, name)[group] = column[first]
+            rest[name].append(np.delete(column, first, axis=0))
+    extra = {name: np.concatenate(parts) for name, parts in rest.items()}
+    particles.append(extra)
+    return len(extra["mass"])

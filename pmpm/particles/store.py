@@ -74,8 +74,13 @@ class Particles:
         setattr(self, name, np.ascontiguousarray(values, dtype=dtype))
 
     def append(self, other_columns):
-        self.set_columns({name: np.concatenate([getattr(self, name), other_columns[name]])
-                          for name in COLUMNS})
+        """Add particles at the end, one column at a time (the extra memory is one
+        column, not the whole store)."""
+        for name in COLUMNS:
+            dtype, _ = COLUMNS[name]
+            joined = np.concatenate([getattr(self, name), other_columns[name]]).astype(
+                dtype, copy=False)
+            setattr(self, name, joined)
 
     def nbytes(self):
         return sum(col.nbytes for col in self.columns().values())

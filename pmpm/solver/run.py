@@ -213,10 +213,20 @@ class Runner:
             "particle_steps_per_s_per_rank": self.rate() / self.world.size,
             "particles_lost": int(sim.stepper.lost),
             "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
+            "windows": self.window_summary(),
             "energy": energies(self.world, sim.particles),
             "memory": memory_summary(self.world, self.baseline_rss, self.n_initial),
             "bodies": self.body_summary(),
         }
+
+    def window_summary(self):
+        """Each refined window's final box (mm), ratio and particle count."""
+        grid, stepper = self.sim.grid, self.sim.stepper
+        counts = self.world.sum(np.bincount(stepper.assign_levels(),
+                                            minlength=len(stepper.levels)))
+        return [{"min": (grid.origin + w.lo * grid.h).tolist(),
+                 "max": (grid.origin + w.hi * grid.h).tolist(), "ratio": w.ratio,
+                 "n_particles": int(counts[1 + i])} for i, w in enumerate(stepper.windows)]
 
     def body_summary(self):
         stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)
