@@ -92,3 +92,34 @@ def test_distributed_step_equals_serial_step():
     ref = serial.x[np.argsort(serial.id)]
     assert np.abs(xs[order] - ref).max() < 1e-10 * 12.0
     assert np.abs(ref - _fill_box(CASE["bodies"][0], CASE["grid"], ".")[0]).max() > 0.1
+
+
+@pytest.mark.mpi(min_size=2)
+def test_distributed_step_with_a_refined_window_equals_serial_step():
+    """A window across the slab plane: ties on both ranks, the block's coarse particles
+    inside it split after the first step, slabs rebalanced as the count grows."""
+    import copy
+    from mpi4py import MPI
+    case = copy.deepcopy(CASE)
+    case["grid"]["windows"] = [{"min": [4, 0, 0], "max": [9, 8, 5], "ratio": 2}]
+    world = comm_world()
+    mine = _step_windowed(world, case)
+    serial = _step_windowed(World(MPI.COMM_SELF), case)
+    ids = np.concatenate(world.allgather(mine.id))
+    xs = np.concatenate(world.allgather(mine.x))
+    order = np.argsort(ids)
+    assert np.array_equal(ids[order], np.sort(serial.id))
+    assert len(ids) > 1024 + 2000             # 1024 filled, 640 of them in the window split
+    assert np.abs(xs[order] - serial.x[np.argsort(serial.id)]).max() < 1e-10 * 12.0
+
+
+def _step_windowed(world, case, steps=60):
+    from pmpm.solver.simulation import Simulation
+    sim = Simulation.from_case(world, case, ".", _fill_box)
+    dt = 0.4 / sim.initial_speed()
+    for k in range(steps):
+        sim.stepper.step(dt)
+        if k % 10 == 9:
+            sim.stepper.rebalance(0.01)
+            sim.stepper.sort_by_cell()
+    return sim.particles

@@ -41,7 +41,7 @@ def build_particles(case, table, filled, keep):
     for index, (positions, volumes) in enumerate(filled):
         mine = keep[offset:offset + len(volumes)]
         cols = _body_columns(index, case["bodies"][index], table, positions[mine],
-                             volumes[mine])
+                             volumes[mine], case["grid"]["cell"])
         cols["id"][:] = offset + np.flatnonzero(mine)
         parts.append(cols)
         offset += len(volumes)
@@ -51,7 +51,7 @@ def build_particles(case, table, filled, keep):
     return Particles(columns)
 
 
-def _body_columns(index, body, table, positions, volumes):
+def _body_columns(index, body, table, positions, volumes, cell):
     n = len(volumes)
     cols = {name: empty_column(name, n) for name in COLUMNS}
     prm = table.params[index]
@@ -64,8 +64,14 @@ def _body_columns(index, body, table, positions, volumes):
     cols["temp"][:] = prm[layout.T_ROOM]
     cols["body"][:] = index
     cols["load"][:] = -1
-    cols["refine"][:] = 1
+    cols["refine"][:] = refinement(volumes, cell / body.get("particles_per_cell", 2))
     return cols
+
+
+def refinement(volumes, spacing):
+    """How many times finer than the coarse lattice ``spacing`` each particle was filled
+    (1 outside windows, R inside a window of ratio R: its volume is (spacing / R)^3)."""
+    return np.maximum(np.rint(np.cbrt(spacing ** 3 / volumes)), 1).astype(np.int32)
 
 
 def assign_loads(case, particles, count_global):

@@ -2,8 +2,7 @@
 import numpy as np
 
 from ..comm.slabs import Slabs, choose_slabs
-from ..grid import CoarseGrid, Window, window_bounds
-from ..kernels import tied
+from ..grid import CoarseGrid, Window
 from ..particles import Particles
 from .bodies import BodyTable, assign_loads, build_particles, fill_positions
 from .errors import SetupError
@@ -44,7 +43,6 @@ class Simulation:
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
         del x
         particles = build_particles(case, bodies, filled, mine)
-        mark_refined(particles, make_windows(case, grid, bodies.names), grid)
         problems = assign_loads(case, particles, world.sum)
         if problems:
             raise SetupError(problems)
@@ -88,18 +86,6 @@ class Simulation:
 
 def make_windows(case, grid, body_names):
     return [Window.from_case(w, grid, body_names) for w in case["grid"].get("windows", [])]
-
-
-def mark_refined(particles, windows, grid):
-    """``refine`` of the particles filled inside a window: its ratio (they were filled at
-    its spacing)."""
-    if not windows:
-        return
-    level = np.zeros(particles.n, np.int32)
-    lo, hi = window_bounds(windows)
-    tied.particle_levels(particles.x, grid.origin, 1.0 / grid.h, lo, hi, level)
-    ratios = np.array([1] + [w.ratio for w in windows], np.int32)
-    particles.refine[:] = ratios[level]
 
 
 def decompose(world, grid, x, case):
