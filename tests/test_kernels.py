@@ -102,3 +102,19 @@ def test_slab_blocks_share_planes_with_neighbours():
     assert blocks[1].shared_planes == [(0, 0), (2, 4)]
     assert blocks[2].shared_planes == [(1, 0)]
     assert all(list(b.shape[1:]) == [6, 6] for b in blocks)     # cells 0..4 -> nodes 0..5
+
+
+def test_cached_loop_that_inlines_materials_is_dropped_when_they_change(tmp_path):
+    from pmpm.kernels.cache import materials_digest, refresh_inlined_caches
+    stale = tmp_path / "mpm.stress_and_forces-170.py311.nbi"
+    other = tmp_path / "mpm.particles_to_grid-20.py311.nbi"
+    stale.write_text("x")
+    other.write_text("x")
+    assert refresh_inlined_caches(str(tmp_path))            # no stamp yet: dropped
+    assert not stale.exists() and other.exists()
+    assert (tmp_path / "materials.sha1").read_text().strip() == materials_digest()
+    stale.write_text("x")
+    assert not refresh_inlined_caches(str(tmp_path))        # same material code: kept
+    assert stale.exists()
+    (tmp_path / "materials.sha1").write_text("0" * 40)
+    assert refresh_inlined_caches(str(tmp_path)) and not stale.exists()
