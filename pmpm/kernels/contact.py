@@ -135,26 +135,49 @@ def _heaviest_other(cnodal, s, b, m_tiny):
     return other
 
 
+@njit(cache=True, inline="always")
+def _in_face(vec, mask):
+    """Drop the components of a mass gradient along the normals of the constrained faces
+    the node lies on (all of them on a fixed face). A slip or symmetry face is a mirror
+    plane: the body's image beyond it has the opposite gradient along the face normal, so
+    the body's surface normal there lies in the face. Without this the gradient of a
+    body's mass across a slip face (every node of a one-cell-thick plane-strain slab)
+    tilts the contact normal out of the plane and Eq. 25 then gives nodes a velocity the
+    face forbids."""
+    for d in range(3):
+        if mask[d] == FIXED:
+            vec[0] = vec[1] = vec[2] = 0.0
+            return
+    for d in range(3):
+        if mask[d] == SLIP:
+            vec[d] = 0.0
+
+
 @njit(cache=True)
-def _collinear_normal(cnodal, s, b, other, master, out):
+def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
     """The outward normal of body b at slot s against the heaviest other body there:
     the master body's own normal (Sec. 2.3 choices 1-2), else Eq. 10 generalised to
-    (n_b - n_rest)/|n_b - n_rest| with n_rest the normal of all other bodies together."""
+    (n_b - n_rest)/|n_b - n_rest| with n_rest the normal of all other bodies together.
+    The mass gradients lose their components along constrained face normals first
+    (:func:`_in_face`, ``mask``: the node's face codes); ``rest`` is scratch space."""
     k = master[b, other]
     if k >= 0:
         sign = 1.0 if k == b else -1.0
         for d in range(3):
             out[d] = sign * cnodal[s, k, 4 + d]
+        _in_face(out, mask)
         _normalise(out)
         return
-    rest = np.zeros(3)
+    rest[0] = rest[1] = rest[2] = 0.0
     for c in range(cnodal.shape[1]):
         if c != b:
             for d in range(3):
                 rest[d] += cnodal[s, c, 4 + d]
+    _in_face(rest, mask)
     _normalise(rest)
     for d in range(3):
         out[d] = cnodal[s, b, 4 + d]
+    _in_face(out, mask)
     _normalise(out)
     for d in range(3):
         out[d] -= rest[d]
@@ -166,9 +189,11 @@ def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
                   shape, lo, strides, n_cells, bc, cvel, cnorm):
     """Per-body velocities (Eq. 6) and collinear normals at the contact nodes; method 2
     sets the normal velocity of each approaching body to the centre of mass's (Eqs. 23,
-    25, slip form). ``gvel`` is the shared (centre-of-mass, Eq. 7) velocity."""
+    25, slip form), within the node's boundary conditions. ``gvel`` is the shared
+    (centre-of-mass, Eq. 7) velocity."""
     mask = np.zeros(3, np.int64)
     vec = np.empty(3)
+    rest = np.empty(3)
     for s in range(slot_nodes.shape[0]):
         n = slot_nodes[s]
         _face_mask(n, shape, lo, strides, n_cells, bc, mask)
@@ -181,7 +206,7 @@ def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
             if m > m_tiny:
                 other = _heaviest_other(cnodal, s, b, m_tiny)
                 if other >= 0:
-                    _collinear_normal(cnodal, s, b, other, master, cnorm[s, b])
+                    _collinear_normal(cnodal, s, b, other, master, mask, rest, cnorm[s, b])
                     if method == 2 and not body_rigid[b]:
                         approach = 0.0
                         for d in range(3):
@@ -189,6 +214,7 @@ def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
                         if approach > 0.0:
                             for d in range(3):
                                 vec[d] -= approach * cnorm[s, b, d]
+                            _constrain(vec, mask)
             for d in range(3):
                 cvel[s, b, d] = vec[d]
 
