@@ -1,13 +1,15 @@
 """Speed, scaling and memory: particle-steps per second per rank on 1 and 2 ranks on
 identical work, parallel efficiency, and peak memory per particle, for
 
-- a 1,000,000-particle Johnson-Cook block impact (runs/bench_block.yaml), and
-- the Taylor bar at 0.38 mm cells (169,376 particles; first 0.01 ms).
+- a 1,000,000-particle Johnson-Cook block impact (runs/bench_block.yaml),
+- the Taylor bar at 0.38 mm cells (169,376 particles; first 0.01 ms),
+- the Taylor bar on a tied interface grid (0.38 mm window, 0.76 mm outside; 0.02 ms),
+- the steel ball on the 1 mm plate at 0.66 mm with contact method 2 and without (0.03 ms).
 
 Writes results/bench/bench.{json,md}. The machine this was written for has 2 cores:
 more ranks than cores need --oversubscribe (passed always) and make no sense to time.
 
-Usage: .venv/bin/python scripts/bench.py [--ranks 1 2] [--small]
+Usage: .venv/bin/python scripts/bench.py [--ranks 1 2] [--small] [--only CASE ...]
 """
 import argparse
 import os
@@ -18,6 +20,15 @@ CASES = {
     "block_1M": ("runs/bench_block.yaml", []),
     "taylor_0.38": ("runs/taylor_bar.yaml", ["params.cell=0.38", "time.end=0.01",
                                              "output.frames=1"]),
+    # tied interface grid: 0.38 mm window over the bottom 3.8 mm, 0.76 mm above; the
+    # particles entering the window are split as it runs (43 k -> 62 k)
+    "taylor_tied_R2": ("runs/taylor_bar.yaml", ["params.ratio=2", "params.refined=3.8",
+                                                "time.end=0.02", "output.frames=1"]),
+    # contact overhead (issue 3): the same particles with and without method 2
+    "ball_contact": ("runs/steel_ball_plate.yaml", ["params.method=2", "time.end=0.03",
+                                                    "output.frames=1"]),
+    "ball_no_contact": ("runs/steel_ball_plate.yaml", ["params.method=0", "time.end=0.03",
+                                                       "output.frames=1"]),
 }
 
 
@@ -26,9 +37,12 @@ def main():
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--small", action="store_true", help="125k-particle block (quick)")
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "bench"))
+    parser.add_argument("--only", nargs="+", choices=sorted(CASES), help="these cases only")
     args = parser.parse_args()
     results = []
     for name, (case, sets) in CASES.items():
+        if args.only and name not in args.only:
+            continue
         sets = list(sets) + (["params.edge=25"] if args.small and "block" in name else [])
         for ranks in args.ranks:
             out = os.path.join(args.out, f"{name}_{ranks}")
