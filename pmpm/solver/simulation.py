@@ -85,7 +85,11 @@ class Simulation:
 
 
 def make_windows(case, grid, body_names):
-    return [Window.from_case(w, grid, body_names) for w in case["grid"].get("windows", [])]
+    """The refined windows of the case. A window of ratio 1 is the coarse grid itself: it
+    is accepted (so that a case can switch refinement on with a parameter) and left out,
+    so that it changes nothing, contact across its faces included."""
+    return [Window.from_case(w, grid, body_names) for w in case["grid"].get("windows", [])
+            if w["ratio"] > 1]
 
 
 def decompose(world, grid, x, case):
