@@ -67,9 +67,9 @@ CASE = {
 }
 
 
-def _step_all(world, steps=60):
+def _step_all(world, steps=60, case=None):
     from pmpm.solver.simulation import Simulation
-    sim = Simulation.from_case(world, CASE, ".", _fill_box)
+    sim = Simulation.from_case(world, case or CASE, ".", _fill_box)
     dt = 0.4 / sim.initial_speed()
     for k in range(steps):
         sim.stepper.step(dt)
@@ -103,8 +103,8 @@ def test_distributed_step_with_a_refined_window_equals_serial_step():
     case = copy.deepcopy(CASE)
     case["grid"]["windows"] = [{"min": [4, 0, 0], "max": [9, 8, 5], "ratio": 2}]
     world = comm_world()
-    mine = _step_windowed(world, case)
-    serial = _step_windowed(World(MPI.COMM_SELF), case)
+    mine = _step_all(world, case=case)
+    serial = _step_all(World(MPI.COMM_SELF), case=case)
     ids = np.concatenate(world.allgather(mine.id))
     xs = np.concatenate(world.allgather(mine.x))
     order = np.argsort(ids)
@@ -112,14 +112,3 @@ def test_distributed_step_with_a_refined_window_equals_serial_step():
     assert len(ids) > 1024 + 2000             # 1024 filled, 640 of them in the window split
     assert np.abs(xs[order] - serial.x[np.argsort(serial.id)]).max() < 1e-10 * 12.0
 
-
-def _step_windowed(world, case, steps=60):
-    from pmpm.solver.simulation import Simulation
-    sim = Simulation.from_case(world, case, ".", _fill_box)
-    dt = 0.4 / sim.initial_speed()
-    for k in range(steps):
-        sim.stepper.step(dt)
-        if k % 10 == 9:
-            sim.stepper.rebalance(0.01)
-            sim.stepper.sort_by_cell()
-    return sim.particles

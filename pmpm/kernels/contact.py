@@ -135,37 +135,22 @@ def _heaviest_other(cnodal, s, b, m_tiny):
     return other
 
 
-@njit(cache=True, inline="always")
-def _in_face(vec, mask):
-    """Drop the components of a mass gradient along the normals of the constrained faces
-    the node lies on (all of them on a fixed face). A slip or symmetry face is a mirror
-    plane: the body's image beyond it has the opposite gradient along the face normal, so
-    the body's surface normal there lies in the face. Without this the gradient of a
-    body's mass across a slip face (every node of a one-cell-thick plane-strain slab)
-    tilts the contact normal out of the plane and Eq. 25 then gives nodes a velocity the
-    face forbids."""
-    for d in range(3):
-        if mask[d] == FIXED:
-            vec[0] = vec[1] = vec[2] = 0.0
-            return
-    for d in range(3):
-        if mask[d] == SLIP:
-            vec[d] = 0.0
-
-
 @njit(cache=True)
 def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
     """The outward normal of body b at slot s against the heaviest other body there:
     the master body's own normal (Sec. 2.3 choices 1-2), else Eq. 10 generalised to
     (n_b - n_rest)/|n_b - n_rest| with n_rest the normal of all other bodies together.
-    The mass gradients lose their components along constrained face normals first
-    (:func:`_in_face`, ``mask``: the node's face codes); ``rest`` is scratch space."""
+    The mass gradients first lose their components along the normals of the constrained
+    faces the node lies on (:func:`_constrain`, ``mask``: the node's face codes): a slip
+    or symmetry face is a mirror plane, the body's image beyond it has the opposite
+    gradient along the face normal, so the surface normal there lies in the face (in a
+    one-cell plane-strain slab every node is on such a face). ``rest`` is scratch space."""
     k = master[b, other]
     if k >= 0:
         sign = 1.0 if k == b else -1.0
         for d in range(3):
             out[d] = sign * cnodal[s, k, 4 + d]
-        _in_face(out, mask)
+        _constrain(out, mask)
         _normalise(out)
         return
     rest[0] = rest[1] = rest[2] = 0.0
@@ -173,11 +158,11 @@ def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
         if c != b:
             for d in range(3):
                 rest[d] += cnodal[s, c, 4 + d]
-    _in_face(rest, mask)
+    _constrain(rest, mask)
     _normalise(rest)
     for d in range(3):
         out[d] = cnodal[s, b, 4 + d]
-    _in_face(out, mask)
+    _constrain(out, mask)
     _normalise(out)
     for d in range(3):
         out[d] -= rest[d]
