@@ -153,7 +153,9 @@ def test_window_moves_in_whole_cells_and_carries_the_rest():
     assert w.lo.tolist() == [3, 2, 1] and w.hi.tolist() == [5, 4, 3]
     assert w.residual == pytest.approx([0.2, 0.0, -0.3])
     w.move(np.array([20.0, 0.0, 0.0]), 1.0, [10, 10, 10])       # stops at the box face
-    assert w.hi.tolist()[0] == 10
+    assert w.hi.tolist()[0] == 10 and w.residual[0] == 0.0
+    assert w.move(np.array([-1.0, 0.0, 0.0]), 1.0, [10, 10, 10])  # and comes back at once
+    assert w.hi.tolist()[0] == 9
 
 
 # ---------------------------------------------------------------- runs

@@ -37,9 +37,12 @@ class Window:
         it amounts to (truncated towards zero, the rest carried over), staying inside the
         box. Returns True if the window moved."""
         self.residual += displacement
-        shift = np.trunc(self.residual / h).astype(np.int64)
-        shift = np.clip(shift, -self.lo, np.asarray(n_cells) - self.hi)
+        wanted = np.trunc(self.residual / h).astype(np.int64)
+        shift = np.clip(wanted, -self.lo, np.asarray(n_cells) - self.hi)
         self.residual -= shift * h
+        # pinned at a box face: forget the motion beyond it, so that the window comes
+        # back with the body at once instead of after the body has undone it
+        self.residual[shift != wanted] = 0.0
         if not shift.any():
             return False
         self.lo += shift
