@@ -6,7 +6,11 @@ apart whole, and when they separate. Writes results/rings/rings.{json,md,png}.
 The rings are plane strain (a slab one cell thick between slip faces), 4,392 particles
 each; a run of 5 ms takes seconds.
 
+The runs use the case's update order, MUSL; `--scheme usf` runs update-stress-first,
+which is unstable here (see runs/rings.yaml).
+
 Usage: .venv/bin/python scripts/rings.py [--ranks 1] [--methods 1 2] [--cfl 0.1 0.25 0.5 0.8]
+       [--scheme musl|usf]
 """
 import argparse
 import json
@@ -16,7 +20,7 @@ import subprocess
 from _common import ROOT, run_case, save_json
 
 from pmpm.post import (body_index, body_points, count_pieces, energy_steps, free_after,
-                       min_distance, read_frame, read_history)
+                       min_distance, read_frame, read_history, until_separation)
 
 CASE = "runs/rings.yaml"
 SPACING = 1.0            # mm, initial particle spacing
@@ -28,9 +32,13 @@ def main():
     parser.add_argument("--ranks", type=int, default=1)
     parser.add_argument("--methods", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cfl", type=float, nargs="+", default=[0.1, 0.25, 0.5, 0.8])
-    parser.add_argument("--out", default=os.path.join(ROOT, "results", "rings"))
+    parser.add_argument("--scheme", choices=("musl", "usf"), default="musl")
+    parser.add_argument("--out", default=None, help="default: results/rings (MUSL) or "
+                        "results/rings_usf")
     parser.add_argument("--plot-only", action="store_true", help="re-plot saved results")
     args = parser.parse_args()
+    args.out = args.out or os.path.join(ROOT, "results", "rings" + (
+        "" if args.scheme == "musl" else f"_{args.scheme}"))
     if args.plot_only:
         with open(os.path.join(args.out, "rings.json"), encoding="utf-8") as f:
             return plot(os.path.join(args.out, "rings.png"), json.load(f), args.out)
@@ -48,7 +56,8 @@ def measure(method, cfl, args):
     out = run_dir(args.out, method, cfl)
     try:
         summary = run_case(CASE, out, args.ranks,
-                           [f"params.method={method}", f"params.cfl={cfl}"])
+                           [f"params.method={method}", f"params.cfl={cfl}",
+                            f"time.scheme={args.scheme}"])
     except subprocess.CalledProcessError:           # a fault: keep the history up to it
         hist = read_history(out)
         return {"method": method, "cfl": cfl, "failed_at": float(hist["time"][-1]),
@@ -66,7 +75,10 @@ def ring_measures(out):
     frame = read_frame(out)
     left = body_points(frame, body_index(out, "left"))
     right = body_points(frame, body_index(out, "right"))
+    contact = energy_steps(until_separation(hist, ("left", "right")))
     return {**energy_steps(hist),
+            "contact_drift": contact["drift"], "contact_max_jump": contact["max_jump"],
+            "contact_max_excursion": contact["max_excursion"],
             "separation_time": max(free_after(hist, "left"), free_after(hist, "right")),
             "final_gap": min_distance(left, right) - SPACING,
             "pieces": [count_pieces(left, 1.5 * SPACING), count_pieces(right, 1.5 * SPACING)],
@@ -74,17 +86,20 @@ def ring_measures(out):
 
 
 def write_table(path, rows):
-    lines = ["| method | cfl | max jump / K0 | drift / K0 | up-and-down / K0 | separates at (ms) "
+    lines = ["| method | cfl | in contact: max jump / K0 | drift / K0 | largest excursion / K0 "
+             "| whole run: max jump / K0 | drift / K0 | up-and-down / K0 | separates at (ms) "
              "| final gap (mm) | pieces | vx left, right (m/s) | particles lost | steps | wall s |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["failed_at"] is not None:
-            lines.append(f"| {r['method']} | {r['cfl']} | {r['max_jump']:.4f} | "
+            lines.append(f"| {r['method']} | {r['cfl']} | | | | {r['max_jump']:.4f} | "
                          f"{r['drift']:+.4f} | {r['variation']:.4f} | run stopped by a fault "
                          f"at t = {r['failed_at']:.3f} ms | | | | | | |")
             continue
         lines.append(
-            f"| {r['method']} | {r['cfl']} | {r['max_jump']:.4f} | {r['drift']:+.4f} | "
+            f"| {r['method']} | {r['cfl']} | {r['contact_max_jump']:.4f} | "
+            f"{r['contact_drift']:+.4f} | {r['contact_max_excursion']:.4f} | "
+            f"{r['max_jump']:.4f} | {r['drift']:+.4f} | "
             f"{r['variation']:.4f} | {r['separation_time']:.2f} | {r['final_gap']:.1f} | "
             f"{r['pieces'][0]}, {r['pieces'][1]} | {r['vx_final'][0]:.1f}, "
             f"{r['vx_final'][1]:.1f} | {r['particles_lost']} | {r['n_steps']} | "

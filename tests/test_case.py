@@ -151,7 +151,7 @@ def test_defaults_filled(tmp_path):
     assert case["gravity"] == [0.0, 0.0, 0.0]
     assert case["grid"]["boundary"] == {"x-": "free", "x+": "free", "y-": "free",
                                         "y+": "free", "z-": "fixed", "z+": "free"}
-    assert case["time"] == {"end": 0.08, "cfl": 0.5, "dt_max": None}
+    assert case["time"] == {"end": 0.08, "cfl": 0.5, "dt_max": None, "scheme": "usf"}
     assert case["output"] == {"frames": 10, "history_every": 10, "checkpoint_every": 0,
                               "progress": True, "times": []}
     assert case["decomposition"] == {"axis": "auto", "rebalance_threshold": 0.2,
@@ -251,6 +251,7 @@ def test_docs_example_loads(tmp_path):
     ({"grid__boundary__z-": "wall"}, "grid.boundary.z-: unknown boundary condition 'wall'"),
     ({"time__end": None}, "time.end: missing (required)"),
     ({"time__cfl": 1.5}, "time.cfl: must be <= 1, got 1.5"),
+    ({"time__scheme": "usl"}, "time.scheme: unknown update scheme 'usl'"),
     ({"grid__max": [7.6, 7.6, 20]}, "bodies[0].geometry: body extends outside the grid box "
                                     "(z from 0.19 to 25.27, grid 0 to 20.52)"),
     ({"bodies__0__geometry__radius": 0.1}, "bodies[0].geometry: no particle falls inside "

@@ -22,7 +22,8 @@ GRID = {"min": Field(vector()), "max": Field(vector()), "cell": Field(number(gre
         "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY)),
         "windows": Field(list_of(read_window, 0, "window"), [])}
 TIME = {"end": Field(number(greater(0))), "cfl": Field(number(greater(0), at_most(1)), 0.5),
-        "dt_max": Field(number(greater(0)), None)}
+        "dt_max": Field(number(greater(0)), None),
+        "scheme": Field(choice(("usf", "musl"), "update scheme"), "usf")}
 OUTPUT = {"frames": Field(integer(at_least(1)), 10),
           "history_every": Field(integer(at_least(1)), 10),
           "checkpoint_every": Field(integer(at_least(0)), 0),

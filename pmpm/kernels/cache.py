@@ -1,10 +1,11 @@
 """Keep Numba's on-disk cache honest about inlined material code.
 
-Numba keys a cached kernel on its own source file only. The particle loop
-``mpm.stress_and_forces`` inlines the material update from ``pmpm/materials``, so an
-edit there would leave the cached loop running the old material code. Before the
+Numba keys a cached kernel on its own source file only. The particle loops
+``mpm.stress_and_forces`` and ``mpm.update_stresses`` inline the material update from
+``pmpm/materials``, so an edit there would leave the cached loops running the old
+material code. Before the
 kernels are loaded, :func:`refresh_inlined_caches` compares a hash of the material
-sources with the one the cache was built from and drops the stale cached loop.
+sources with the one the cache was built from and drops the stale cached loops.
 """
 import glob
 import hashlib
@@ -12,7 +13,7 @@ import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 MATERIALS = os.path.join(os.path.dirname(HERE), "materials")
-INLINING = ("mpm.stress_and_forces",)
+INLINING = ("mpm.stress_and_forces", "mpm.update_stresses")
 
 
 def materials_digest():

@@ -1,5 +1,6 @@
 """The particle and node loops of one update-stress-first step (seed 000 Eqs. 12-16,
-seed 001 Eqs. 27-34).
+seed 001 Eqs. 27-34), and the two loops that the modified-update-stress-last order
+(MUSL) uses instead of the combined stress-and-force pass.
 
 Nodal arrays of a local block (flat, see ``pmpm.grid.LocalBlock``):
 ``nodal`` (n_nodes, 8): mass, momentum (3), rigid mass, rigid momentum (3);
@@ -228,6 +229,93 @@ def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, l
                 cforce[slots[k], b, 1] += f1
                 cforce[slots[k], b, 2] += f2
     return fastest, bad
+
+
+
+# -- modified update stress last (MUSL) ------------------------------------------------
+# MUSL splits the pass above in two: the nodal forces from the stresses of the start of the
+# step, then, after the particle velocities are updated and mapped back to the grid, the
+# stress update from those velocities. The two loops below share two inlined helpers.
+
+@njit(cache=True, inline="always")
+def _velocity_gradient(nodes, gx, gy, gz, gvel, contact, slot_of, cvel, b, Lg):
+    """L_ij = sum_I v_Ii dN_I/dx_j, a particle of body ``b`` reading its own body's
+    velocity at contact nodes."""
+    Lg[:, :] = 0.0
+    for k in range(8):
+        n = nodes[k]
+        s = slot_of[n] if contact else -1
+        for i in range(3):
+            vi = gvel[n, i] if s < 0 else cvel[s, b, i]
+            Lg[i, 0] += vi * gx[k]
+            Lg[i, 1] += vi * gy[k]
+            Lg[i, 2] += vi * gz[k]
+
+
+@njit(cache=True)
+def update_stresses(x, v, rho, stress, F, eps_p, e_int, temp, q, body, body_code,
+                    body_prm, body_rigid, dt, h, origin, inv_h, lo, strides, gvel, contact,
+                    slot_of, cvel, level, want):
+    """MUSL's stress update from the nodal velocities ``gvel`` mapped back from the
+    updated particle velocities at the particles' start-of-step positions. Returns
+    (speed, bad) as :func:`stress_and_forces`."""
+    nodes = np.empty(8, np.int64)
+    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    Lg = np.empty((3, 3))
+    fastest, bad = 0.0, -1
+    for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
+        b = body[p]
+        speed = np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2)
+        if body_rigid[b]:
+            fastest = max(fastest, speed)
+            continue
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        _velocity_gradient(nodes, gx, gy, gz, gvel, contact, slot_of, cvel, b, Lg)
+        c = update_stress(p, body_code[b], body_prm[b], dt, h, Lg, stress, F, rho,
+                          eps_p, e_int, temp, q)
+        if c < 0.0 and bad < 0:
+            bad = p
+        fastest = max(fastest, c + speed)
+    return fastest, bad
+
+
+@njit(cache=True)
+def scatter_forces(x, mass, rho, stress, q, body, load, load_scale, body_rigid, gravity,
+                   load_vec, origin, inv_h, lo, strides, force, contact, slot_of, cforce,
+                   level, want):
+    """MUSL's nodal forces (Eqs. 31-32) from the particles' current stresses; with
+    ``contact`` a particle's force also goes to its body's ``cforce`` at contact nodes."""
+    nodes = np.empty(8, np.int64)
+    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    for p in range(x.shape[0]):
+        if level[p] != want or body_rigid[body[p]]:
+            continue
+        b = body[p]
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        vol = mass[p] / rho[p]
+        sxx, syy, szz = stress[p, 0] - q[p], stress[p, 1] - q[p], stress[p, 2] - q[p]
+        sxy, syz, szx = stress[p, 3], stress[p, 4], stress[p, 5]
+        ex, ey, ez = mass[p] * gravity[0], mass[p] * gravity[1], mass[p] * gravity[2]
+        li, ls = load[p], load_scale[p]
+        if li >= 0:
+            ex += ls * load_vec[li, 0]
+            ey += ls * load_vec[li, 1]
+            ez += ls * load_vec[li, 2]
+        for k in range(8):
+            n = nodes[k]
+            f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
+            f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
+            f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+            force[n, 0] += f0
+            force[n, 1] += f1
+            force[n, 2] += f2
+            s = slot_of[n] if contact else -1
+            if s >= 0:
+                cforce[s, b, 0] += f0
+                cforce[s, b, 1] += f1
+                cforce[s, b, 2] += f2
 
 
 @njit(cache=True)

@@ -66,6 +66,14 @@ def free_after(hist, name, tol=1e-6):
     return float(hist["time"][moving[-1] + 1]) if len(moving) else float(hist["time"][0])
 
 
+def until_separation(hist, names):
+    """The history rows up to the time the bodies ``names`` all move freely (see
+    :func:`free_after`)."""
+    t_free = max(free_after(hist, name) for name in names)
+    keep = np.asarray(hist["time"]) <= t_free
+    return {key: np.asarray(values)[keep] for key, values in hist.items()}
+
+
 def travel(hist, name, axis=0):
     """(time, displacement of the centroid of ``name`` along ``axis`` since t = 0)."""
     c = body_history(hist, name)["centroid"][:, axis]

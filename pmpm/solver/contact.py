@@ -132,11 +132,13 @@ class ContactFields:
                          grid.n_cells, grid.boundary, self.cvel, self.cnorm)
         self.cforce = self.slot_array("cforce", 3, nb)
 
-    def end_velocities(self, gnew, bodies, dt, grid, block):
+    def end_velocities(self, gvel, gnew, bodies, dt, grid, block):
         self.sum_on_shared_planes(block, self.cforce)
         self.cnew = self.slot_array("cnew", kc.CNEW, self.cnodal.shape[1], zero=False)
-        kc.contact_end(self.cnodal, self.cvel, self.cnorm, self.cforce, self.slot_nodes, gnew,
-                       self.rules.friction, bodies.rigid, dt, self.m_tiny, block.shape,
+        kc.contact_end(self.cnodal, self.cvel, self.cnorm, self.cforce, self.slot_nodes, gvel,
+                       gnew,
+                       self.rules.friction, bodies.rigid, self.rules.method, dt,
+                       self.m_tiny, block.shape,
                        block.lo, block.strides, grid.n_cells, grid.boundary, self.cnew)
 
     @property

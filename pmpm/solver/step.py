@@ -30,10 +30,11 @@ class Stepper:
     contact : dict   the case's ``contact`` section
     windows : list of grid.Window   refined windows (seed 000 Sec. 3)
     id_base : int    above every particle id at the start (split particles' ids)
+    scheme : str     "usf" (update stress first) or "musl" (modified update stress last)
     """
 
     def __init__(self, world, grid, slabs, particles, bodies, gravity, m_tiny, contact=None,
-                 windows=(), id_base=0):
+                 windows=(), id_base=0, scheme="usf"):
         self.world, self.grid, self.slabs = world, grid, slabs
         self.particles, self.bodies = particles, bodies
         self.gravity = np.asarray(gravity, dtype=np.float64)
@@ -42,6 +43,8 @@ class Stepper:
         self.fastest = 0.0
         self.lost = 0
         self.fault = None
+        self.scheme = scheme
+        self.work = Workspace()         # the MUSL position copies
         self.rules = ContactRules(contact or {}, bodies)
         self.windows = list(windows)
         self.levels = [Level(grid)] + [Level(grid, w) for w in self.windows]
@@ -57,9 +60,14 @@ class Stepper:
         self.build_blocks()
         self.map_particles_to_grid()
         self.nodal_velocities_with_boundaries()
-        self.update_stress_and_nodal_forces(dt)
-        self.integrate_nodal_momentum(dt)
-        self.update_particles(dt)
+        if self.scheme == "musl":
+            self.nodal_forces()
+            self.integrate_nodal_momentum(dt)
+            self.update_particles_then_stresses(dt)
+        else:
+            self.update_stress_and_nodal_forces(dt)
+            self.integrate_nodal_momentum(dt)
+            self.update_particles(dt)
         self.refiner.move_windows_and_split()
         self.migrate_and_check()
 
@@ -128,6 +136,45 @@ class Stepper:
         self.grids.slave_forces_to_masters()
         self.grids.sum_shared("force")
 
+    def nodal_forces(self):
+        """MUSL: nodal forces from the stresses of the start of the step (Eqs. 31-32),
+        slave forces to their masters, the sums over shared slab planes."""
+        p = self.particles
+        for s in self.grids:
+            b, lv = s.block, s.level
+            s.force = s.work.zeros("force", b.n_nodes, 3)
+            mpm.scatter_forces(p.x, p.mass, p.rho, p.stress, p.q, p.body, p.load,
+                               p.load_scale, self.bodies.rigid, self.gravity, self.load_vec,
+                               lv.origin, lv.inv_h, b.lo, b.strides, s.force,
+                               *self.contact_arrays(s, "cforce"), self.level_of, s.index)
+        self.grids.slave_forces_to_masters()
+        self.grids.sum_shared("force")
+
+    def update_particles_then_stresses(self, dt):
+        """MUSL: move the particles and update their velocities as USF does, map the new
+        velocities back to the grid from the start-of-step positions (boundary
+        conditions, and method 2's contact correction, applied again), and update the
+        stresses from those nodal velocities."""
+        p = self.particles
+        start = self.work_copy("x_start", p.x)
+        self.update_particles(dt)
+        moved = self.work_copy("x_moved", p.x)
+        p.x[:] = start
+        self.map_particles_to_grid()
+        self.nodal_velocities_with_boundaries()
+        self.fastest = 0.0
+        for s in self.grids:
+            b, lv = s.block, s.level
+            fastest, bad = mpm.update_stresses(
+                p.x, p.v, p.rho, p.stress, p.F, p.eps_p, p.e_int, p.temp, p.q, p.body,
+                self.bodies.codes, self.bodies.params, self.bodies.rigid, dt, lv.h,
+                lv.origin, lv.inv_h, b.lo, b.strides, s.gvel,
+                *self.contact_arrays(s, "cvel"), self.level_of, s.index)
+            self.fastest = max(self.fastest, fastest * lv.ratio)
+            self.note_fault(bad, "constitutive update failed (NaN, non-convergence or "
+                                 "non-positive density)")
+        p.x[:] = moved
+
     def integrate_nodal_momentum(self, dt):
         """Leap-frog on the nodes of every level (Eq. 14); contact forces (seed 001 Eqs.
         11-22); slaves follow their masters (Eqs. 23-24)."""
@@ -137,7 +184,7 @@ class Stepper:
             mpm.integrate_nodes(s.nodal, s.force, s.gvel, dt, b.shape, b.lo, b.strides,
                                 lv.n_cells, lv.boundary, self.m_tiny, s.gnew)
             if self.rules.active:
-                s.contact.end_velocities(s.gnew, self.bodies, dt, lv, b)
+                s.contact.end_velocities(s.gvel, s.gnew, self.bodies, dt, lv, b)
         self.grids.slave_motion()
 
     def update_particles(self, dt):
@@ -183,6 +230,12 @@ class Stepper:
         if not self.rules.active:
             return (False, c.slot_of) + (c.empty,) * len(names)
         return (True, c.slot_of) + tuple(getattr(c, n) for n in names)
+
+    def work_copy(self, name, array):
+        """A copy of the (n, 3) ``array`` in the reused buffer ``name``."""
+        copy = self.work.empty(name, len(array), 3)
+        copy[:] = array
+        return copy
 
     def send_to_owners(self, slabs):
         p = self.particles
