@@ -23,8 +23,9 @@ def run_case(world, args):
     out = args.out or os.path.join("results", _stem(args.case))
     prepare_output(world, out, args.force, args.restart)
     from .kernels.warmup import warm_up
-    from .solver.memory import current_rss_bytes
+    from .solver.memory import current_rss_bytes, return_freed_memory_to_os
     from .solver.run import Runner
+    return_freed_memory_to_os()
     compile_s = world.max(warm_up())
     baseline = current_rss_bytes()
     sim, restart = build_simulation(world, case, args, out)

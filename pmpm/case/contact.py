@@ -13,7 +13,8 @@ With method 1 or 2 every body has its own velocity field at nodes that two or mo
 bodies reach, and every pair of bodies is in contact.
 """
 from .errors import join, unknown_name
-from .fields import INVALID, OMIT, Field, at_least, list_of, number, read_mapping, text, valid
+from .fields import (INVALID, OMIT, Field, at_least, boolean, list_of, number,
+                     read_mapping, text, valid)
 
 METHODS = {"none": 0, "0": 0, "1": 1, "2": 2}
 NORMAL_RULES = ("average", "stiffer")
@@ -47,6 +48,7 @@ def read_pair(raw, path, problems):
 
 
 CONTACT = {"method": Field(read_method, 0), "friction": FRICTION,
+           "skip_separating": Field(boolean(), False),
            "normal": Field(text(), "average"),
            "pairs": Field(list_of(read_pair, 0, "pair"), [])}
 

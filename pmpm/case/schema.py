@@ -91,8 +91,8 @@ def top_level_fields(default_title):
         "time": Field(mapping(TIME)),
         "output": Field(mapping(OUTPUT), defaults_of(OUTPUT)),
         "decomposition": Field(mapping(DECOMPOSITION), defaults_of(DECOMPOSITION)),
-        "contact": Field(read_contact, {"method": 0, "friction": 0.0, "normal": "average",
-                                        "pairs": []}),
+        "contact": Field(read_contact, {"method": 0, "friction": 0.0, "skip_separating": False,
+                                        "normal": "average", "pairs": []}),
     }
 
 

@@ -206,18 +206,19 @@ def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
 
 @njit(cache=True)
 def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, body_rigid,
-                method, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew):
+                skip_separating, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew):
     """Trial velocities of each body alone (Eqs. 11, 26); where a body approaches the
     centre of mass (Eq. 12) the contact force of Eq. 22 (normal part Eq. 17, no-slip
     tangential part Eq. 21 limited by Coulomb friction) corrects it (Eq. 14).
     ``gnew[:, :3]`` is the shared trial velocity, i.e. the centre of mass's (Eq. 13),
     ``gvel`` the start-of-step one.
 
-    With method 2 a body that separated from the centre of mass at the start of the step
-    (Eq. 23 false, before its start correction) is not corrected at the end: the
-    particles' velocities still separate there, and the correction would do positive
-    work on them (the elastic rings of seed 001 Sec. 5.1 gained 20-30 % of their energy
-    so). The paper applies Eq. 12 alone; method 1 here does so too."""
+    With ``skip_separating`` (method 2 only) a body that separated from the centre of
+    mass at the start of the step (Eq. 23 false, before its start correction) is not
+    corrected at the end: the particles' velocities still separate there, and the
+    correction would do positive work on them (the elastic rings of seed 001 Sec. 5.1
+    gained 20-30 % of their energy so). Without it, Eq. 12 alone decides, as in the
+    paper."""
     mask = np.zeros(3, np.int64)
     acc = np.empty(3)
     tangent = np.empty(3)
@@ -238,8 +239,8 @@ def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, b
                 approach = 0.0
                 for d in range(3):
                     approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]
-                before = 0.0               # method 2: approach at the start of the step
-                if method == 2:
+                before = 0.0               # the approach at the start of the step
+                if skip_separating:
                     for d in range(3):
                         before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
                 if approach > 0.0 and before >= 0.0:

@@ -45,7 +45,7 @@ def warm_up():
                           True, slot_of, cvel, cforce, level, 0)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, shape, lo, strides, n_cells, bc, 0.0, gnew)
     contact.contact_end(cnodal, cvel, cvel, cforce, slot_nodes, gvel, gnew, np.zeros((1, 1)),
-                        rigid, 2, 1e-3, 0.0, shape, lo, strides, n_cells, bc, cnew)
+                        rigid, True, 1e-3, 0.0, shape, lo, strides, n_cells, bc, cnew)
     mpm.grid_to_particles(x, v, body, rigid, 1e-3, origin, inv_h, lo, strides, gnew,
                           True, slot_of, cnew, level, 0)
     mpm.cell_keys(x, origin, inv_h, n_cells)

@@ -1,13 +1,15 @@
 """Reading results back and the measures the validation cases compare (serial)."""
 from .frames import axial_profiles, read_frame, frame_times, read_summary
-from .measures import taylor_length_and_diameter, wave_bar_stress, rms_error
+from .measures import (convex_hull_area, foot_diameter, taylor_length_and_diameter,
+                       taylor_shape, wave_bar_stress, rms_error)
 from .contact import (body_history, body_index, body_points, connected_pieces, count_pieces,
                       energy_steps, free_after, min_distance, perforation, read_history,
                       residual_velocity, rolling_sphere_slips, rolling_sphere_travel, travel,
                       until_separation)
 
 __all__ = ["axial_profiles", "read_frame", "frame_times", "read_summary",
-           "taylor_length_and_diameter", "wave_bar_stress", "rms_error",
+           "convex_hull_area", "foot_diameter", "taylor_length_and_diameter", "taylor_shape",
+           "wave_bar_stress", "rms_error",
            "body_history", "body_index", "body_points", "connected_pieces", "count_pieces",
            "energy_steps", "free_after", "min_distance", "perforation", "read_history",
            "residual_velocity", "rolling_sphere_slips", "rolling_sphere_travel", "travel",

@@ -26,6 +26,7 @@ class ContactRules:
         names = bodies.names
         nb = len(names)
         self.method = int(contact.get("method", 0))
+        self.skip_separating = self.method == 2 and bool(contact.get("skip_separating"))
         if self.method and nb > MAX_BODIES:
             raise ValueError(f"contact: at most {MAX_BODIES} bodies, got {nb}")
         self.friction = np.full((nb, nb), float(contact.get("friction", 0.0)))
@@ -137,7 +138,7 @@ class ContactFields:
         self.cnew = self.slot_array("cnew", kc.CNEW, self.cnodal.shape[1], zero=False)
         kc.contact_end(self.cnodal, self.cvel, self.cnorm, self.cforce, self.slot_nodes, gvel,
                        gnew,
-                       self.rules.friction, bodies.rigid, self.rules.method, dt,
+                       self.rules.friction, bodies.rigid, self.rules.skip_separating, dt,
                        self.m_tiny, block.shape,
                        block.lo, block.strides, grid.n_cells, grid.boundary, self.cnew)
 

@@ -1,6 +1,29 @@
-"""Resident memory of this process (Linux), for the summary's memory figures."""
+"""Resident memory of this process (Linux), for the summary's memory figures, and the
+allocator setting that hands freed particle columns back to the system."""
+import ctypes
+import ctypes.util
 import os
 import resource
+
+M_MMAP_THRESHOLD = -3           # glibc's mallopt parameter
+MMAP_THRESHOLD = 128 * 1024     # bytes: glibc's initial value
+
+
+def return_freed_memory_to_os():
+    """Keep glibc's mmap threshold at 128 KiB so that every large array lives in its own
+    mapping and goes back to the system when freed.
+
+    By default glibc raises the threshold to the size of each large block freed (up to
+    32 MiB): a particle column replaced by its sorted or migrated copy then leaves its
+    old block in the heap, where the next copy may not fit, and the resident size grows
+    by about a store's worth over the run (Taylor bar at 0.38 mm: 570 bytes per particle
+    against 437 with the threshold held). Returns True where the setting took (glibc)."""
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name) if name else None
+        return bool(libc and libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD))
+    except (OSError, AttributeError):
+        return False
 
 
 def current_rss_bytes():

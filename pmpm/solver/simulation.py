@@ -22,7 +22,7 @@ class Simulation:
                                case.get("gravity", [0, 0, 0]), 1e-12 * mean_mass,
                                case.get("contact"), self.windows,
                                n_total if id_base is None else id_base,
-                               case["time"].get("scheme", "usf"))
+                               case.get("time", {}).get("scheme", "usf"))
         self.loads = case.get("loads", [])
         self.time, self.step_count = 0.0, 0
 
