@@ -31,3 +31,27 @@ def save_json(path, data):
     with open(path, "w", encoding="utf-8") as f:
         json.dump(data, f, indent=2)
     print("wrote", path)
+
+
+def write_lines(path, lines, echo=False):
+    """Write ``lines`` as a text file (a Markdown table, say), creating its folder; with
+    ``echo`` print them too."""
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    if echo:
+        print("\n".join(lines))
+    print("wrote", path)
+
+
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend, or None (and a line saying so) where
+    matplotlib is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        print("matplotlib is not installed: no plot")
+        return None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt

@@ -14,7 +14,7 @@ Usage: .venv/bin/python scripts/bench.py [--ranks 1 2] [--small] [--only CASE ..
 import argparse
 import os
 
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, write_lines
 
 CASES = {
     "block_1M": ("runs/bench_block.yaml", []),
@@ -78,10 +78,7 @@ def write_table(path, results):
         rss = f"{r['peak_rss_mb']:.0f}" if r["peak_rss_mb"] else "-"
         lines.append(f"| {r['case']} | {r['ranks']} | {r['particles']} | {r['steps']} | "
                      f"{r['per_rank'] / 1e6:.2f} | {eff} | {bpp} | {rss} | {r['compile_s']:.1f} |")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
-    print("wrote", path)
+    write_lines(path, lines, echo=True)
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ import json
 import math
 import os
 
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, pyplot, write_lines
 
 from pmpm.post import body_history, read_history, residual_velocity
 
@@ -95,20 +95,14 @@ def write_table(path, rows):
                      f"experiment's 455 ({'within' if abs(err) <= TOLERANCE else 'outside'} 5 %).")
     lines.append("\nMethod 0: standard MPM. V_r: rod speed at the end of the run (0 while the "
                  "rod's centre of mass is still above the plate's far face).")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", path)
+    write_lines(path, lines)
 
 
 def plot(path, rows):
     """Residual against striking velocity: pmpm (lines) and Table IV (markers)."""
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 5))
     v = sorted(TABLE4)
     ax.plot(v, [TABLE4[s][0] for s in v], "ks", label="experiment")

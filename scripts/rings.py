@@ -17,7 +17,7 @@ import json
 import os
 import subprocess
 
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, pyplot, write_lines
 
 from pmpm.post import (body_index, body_points, count_pieces, energy_steps, free_after,
                        min_distance, read_frame, read_history, until_separation)
@@ -108,20 +108,14 @@ def write_table(path, rows):
                  f"history rows (5 steps apart). The paper's rings separate at about "
                  f"{PAPER_SEPARATION} ms (they start 4 mm apart here; the paper gives no gap). "
                  f"Final gap: between particle surfaces (centres less one spacing).")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", path)
+    write_lines(path, lines)
 
 
 def plot(path, rows, out_dir):
     """Total energy / K0 against time, one panel per method (seed 001 Fig. 4)."""
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     methods = sorted({r["method"] for r in rows})
     fig, axes = plt.subplots(1, len(methods), figsize=(6 * len(methods), 4.5), squeeze=False,
                              sharey=True)

@@ -11,7 +11,7 @@ import json
 import math
 import os
 
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, pyplot, write_lines
 
 from pmpm.post import read_history, rolling_sphere_slips, rolling_sphere_travel, travel
 
@@ -74,20 +74,14 @@ def write_table(path, rows):
                      f"{r['wall_s']:.0f}, {r['ranks']} |")
     lines.append("\nEq. 36 is for a rigid sphere on a rigid incline: an upper bound for elastic "
                  "bodies (seed 001 Sec. 5.2).")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", path)
+    write_lines(path, lines)
 
 
 def plot(path, rows, out_dir):
     """Travel against time with Eq. 36, one panel per method (seed 001 Fig. 6)."""
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
     methods = sorted({r["method"] for r in rows})
     fig, axes = plt.subplots(1, len(methods), figsize=(6 * len(methods), 4.5), squeeze=False,

@@ -16,7 +16,7 @@ import argparse
 import json
 import os
 
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, pyplot, write_lines
 
 from pmpm.post import body_index, body_points, perforation, read_frame, read_history
 
@@ -88,20 +88,14 @@ def write_table(path, rows):
                  f"Experiment: h/D = {EXPERIMENT_H_OVER_D}. V_r: the ball's mass-weighted "
                  f"downward velocity at 240 us. D: hole diameter at its narrowest; h: height "
                  f"of the deformed plate, thickness included (pmpm.post.perforation).")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", path)
+    write_lines(path, lines)
 
 
 def plot(path, rows, out_dir):
     """Side view (radius against height) of the final ball and plate, coloured by eps_p."""
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
     fig, axes = plt.subplots(len(rows), 1, figsize=(9, 4.0 * len(rows)), squeeze=False)
     for ax, r in zip(axes[:, 0], rows):

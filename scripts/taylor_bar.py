@@ -7,7 +7,7 @@ Usage: .venv/bin/python scripts/taylor_bar.py [--ranks 2] [--fine]
 import argparse
 import os
 
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, pyplot, write_lines
 
 from pmpm.post import read_frame, taylor_shape
 
@@ -66,15 +66,13 @@ def write_table(path, rows):
     lines.append(f"\nExperiment: L = {EXPERIMENT[0]}, D = {EXPERIMENT[1]} mm. L and D from "
                  "particle centres (uncertainty about half a particle spacing): D is the "
                  "footprint's equivalent-circle diameter, D widest twice the largest radius.")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", path)
+    write_lines(path, lines)
 
 
 def plot(path, rows, out_dir):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
+    if plt is None:
+        return
     import numpy as np
     fig, axes = plt.subplots(1, len(rows), figsize=(4 * len(rows), 6), squeeze=False)
     for ax, row in zip(axes[0], rows):

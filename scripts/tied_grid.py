@@ -20,7 +20,7 @@ import argparse
 import os
 
 import numpy as np
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, pyplot, write_lines
 
 from pmpm.post import (axial_profiles, body_index, body_points, perforation, read_frame,
                        read_history, residual_velocity, rms_error,
@@ -64,7 +64,7 @@ def wave(args):
         e = r["rms_over_load"]
         lines.append(f"| {name} | {r['R']} | {e[0]:.4f} | {e[1]:.4f} | {e[2]:.4f} | "
                      f"{r['table1_x1e4']} |")
-    write(os.path.join(args.out, "tied_wave.md"), lines)
+    write_lines(os.path.join(args.out, "tied_wave.md"), lines, echo=True)
     plot_wave(os.path.join(args.out, "tied_wave.png"), rows)
 
 
@@ -128,7 +128,7 @@ def taylor(args):
                      f"{100 * r['energy_drift']:+.2f} % |")
     lines.append("\nExperiment: L = 16.2, D = 13.5 mm; L and D from particle centres (D: "
                  "the footprint's equivalent circle; D widest: twice the largest radius).")
-    write(os.path.join(args.out, "tied_taylor.md"), lines)
+    write_lines(os.path.join(args.out, "tied_taylor.md"), lines, echo=True)
 
 
 def cost(summary):
@@ -168,7 +168,7 @@ def ball(args):
                      f"{r['n_steps']} ({r['paper_steps']}) | {r['wall_s']:.0f} on "
                      f"{r['ranks']} ({r['paper_cpu_s']}) |")
     lines.append("\nExperiment: h/D = 0.84.")
-    write(os.path.join(args.out, "tied_ball.md"), lines)
+    write_lines(os.path.join(args.out, "tied_ball.md"), lines, echo=True)
 
 
 # ---------------------------------------------------------------- ogive rod (Sec. 5.4)
@@ -196,25 +196,10 @@ def ogive(args):
         lines.append(f"| {r['v0']} | {r['run']} | {r['V_r']:.0f} | {r['paper']} "
                      f"({r['experiment']}) | {r['n_initial']} -> {r['n_final']} | "
                      f"{r['n_steps']} | {r['wall_s']:.0f} on {r['ranks']} |")
-    write(os.path.join(args.out, "tied_ogive.md"), lines)
+    write_lines(os.path.join(args.out, "tied_ogive.md"), lines, echo=True)
 
 
 # ---------------------------------------------------------------- helpers
-
-def write(path, lines):
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", path)
-    print("\n".join(lines))
-
-
-def pyplot():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

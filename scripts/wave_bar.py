@@ -12,7 +12,7 @@ import argparse
 import os
 
 import numpy as np
-from _common import ROOT, run_case, save_json
+from _common import ROOT, run_case, save_json, pyplot, write_lines
 
 from pmpm.post import axial_profiles, rms_error, wave_bar_stress
 
@@ -64,15 +64,13 @@ def write_table(path, rows):
                      f"| {1e4 * r['table1_mpm']:.0f} | {r['table1_mpm_over_load_if_MPa']:.4f} |")
     lines.append("\nTable 1 does not state its unit or time; read as MPa it normalises to the "
                  "last column.")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", path)
+    write_lines(path, lines)
 
 
 def plot(path, profiles):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
+    if plt is None:
+        return
     fig, axes = plt.subplots(len(TIMES), 1, figsize=(9, 9), sharex=True)
     for ax, t in zip(axes, TIMES):
         xs = np.linspace(0, 100, 2001)
