@@ -12,6 +12,7 @@ writes for a rod that stays in the plate). Each run lasts `travel / v0` = 172.5 
 
 Usage: .venv/bin/python scripts/ogive_plate.py [--ranks 2] [--methods 0 1 2]
                                               [--speeds 340 400 446 575 730]
+                                              [--set KEY=VALUE ...]
 """
 import argparse
 import json
@@ -37,6 +38,8 @@ def main():
     parser.add_argument("--methods", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--speeds", type=float, nargs="+", default=sorted(TABLE4))
     parser.add_argument("--end", type=float, default=None, help="end time (ms) of every run")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="an override passed to every run, e.g. params.ppc_rod=2")
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "ogive_plate"))
     parser.add_argument("--plot-only", action="store_true", help="re-plot saved results")
     args = parser.parse_args()
@@ -53,6 +56,7 @@ def measure(v0, method, args):
     out = os.path.join(args.out, f"v{v0:g}_method{method}")
     sets = [f"params.v0={v0}", f"params.method={method}"]
     sets += [f"time.end={args.end}"] if args.end else []
+    sets += args.set
     summary = run_case(CASE, out, args.ranks, sets)
     paper = TABLE4.get(int(v0), (None,) * 4)
     return {"v0": v0, "method": method, **rod_exit(out), "experiment": paper[0],
