@@ -95,13 +95,16 @@ def test_distributed_step_equals_serial_step():
 
 
 @pytest.mark.mpi(min_size=2)
-def test_distributed_step_with_a_refined_window_equals_serial_step():
+@pytest.mark.parametrize("scheme", ["usf", "musl"])
+def test_distributed_step_with_a_refined_window_equals_serial_step(scheme):
     """A window across the slab plane: ties on both ranks, the block's coarse particles
-    inside it split after the first step, slabs rebalanced as the count grows."""
+    inside it split after the first step, slabs rebalanced as the count grows; in both
+    update orders."""
     import copy
     from mpi4py import MPI
     case = copy.deepcopy(CASE)
     case["grid"]["windows"] = [{"min": [4, 0, 0], "max": [9, 8, 5], "ratio": 2}]
+    case["time"] = {"scheme": scheme}
     world = comm_world()
     mine = _step_all(world, case=case)
     serial = _step_all(World(MPI.COMM_SELF), case=case)
