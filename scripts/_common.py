@@ -55,3 +55,20 @@ def pyplot():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
+
+
+def save_figure(fig, path):
+    """Lay out ``fig`` and write it to ``path`` (PNG at 120 dpi)."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print("wrote", path)
+
+
+def method_panels(plt, rows):
+    """One panel per contact method found in ``rows``, side by side with a shared y axis.
+    Returns the figure and a list of (axes, method, that method's rows)."""
+    methods = sorted({r["method"] for r in rows})
+    fig, axes = plt.subplots(1, len(methods), figsize=(6 * len(methods), 4.5), squeeze=False,
+                             sharey=True)
+    return fig, [(ax, m, [r for r in rows if r["method"] == m])
+                 for ax, m in zip(axes[0], methods)]

@@ -19,7 +19,7 @@ import json
 import math
 import os
 
-from _common import ROOT, run_case, save_json, pyplot, write_lines
+from _common import ROOT, run_case, save_json, pyplot, write_lines, save_figure
 
 from pmpm.post import body_history, read_history, residual_velocity
 
@@ -119,9 +119,7 @@ def plot(path, rows):
     ax.set_xlabel("striking velocity V0 (m/s)")
     ax.set_ylabel("residual velocity V_r (m/s)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    print("wrote", path)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,8 @@ import json
 import os
 import subprocess
 
-from _common import ROOT, run_case, save_json, pyplot, write_lines
+from _common import (ROOT, run_case, save_json, pyplot, write_lines, save_figure,
+                    method_panels)
 
 from pmpm.post import (body_index, body_points, count_pieces, energy_steps, free_after,
                        min_distance, read_frame, read_history, until_separation)
@@ -116,23 +117,17 @@ def plot(path, rows, out_dir):
     plt = pyplot()
     if plt is None:
         return
-    methods = sorted({r["method"] for r in rows})
-    fig, axes = plt.subplots(1, len(methods), figsize=(6 * len(methods), 4.5), squeeze=False,
-                             sharey=True)
-    for ax, method in zip(axes[0], methods):
-        for r in rows:
-            if r["method"] != method:
-                continue
+    fig, panels = method_panels(plt, rows)
+    for ax, method, mine in panels:
+        for r in mine:
             hist = read_history(run_dir(out_dir, method, r["cfl"]))
             ax.plot(hist["time"], hist["total"] / r["kinetic0"], lw=1, label=f"cfl {r['cfl']}")
         ax.axvline(PAPER_SEPARATION, color="k", ls=":", lw=1, label="paper: separation")
         ax.set_title(f"contact method {method}")
         ax.set_xlabel("t (ms)")
         ax.legend(fontsize=8)
-    axes[0][0].set_ylabel("total energy / initial kinetic energy")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    print("wrote", path)
+    panels[0][0].set_ylabel("total energy / initial kinetic energy")
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,8 @@ import json
 import math
 import os
 
-from _common import ROOT, run_case, save_json, pyplot, write_lines
+from _common import (ROOT, run_case, save_json, pyplot, write_lines, save_figure,
+                    method_panels)
 
 from pmpm.post import read_history, rolling_sphere_slips, rolling_sphere_travel, travel
 
@@ -83,13 +84,9 @@ def plot(path, rows, out_dir):
     if plt is None:
         return
     import numpy as np
-    methods = sorted({r["method"] for r in rows})
-    fig, axes = plt.subplots(1, len(methods), figsize=(6 * len(methods), 4.5), squeeze=False,
-                             sharey=True)
-    for ax, method in zip(axes[0], methods):
-        for r in rows:
-            if r["method"] != method:
-                continue
+    fig, panels = method_panels(plt, rows)
+    for ax, method, mine in panels:
+        for r in mine:
             t, x = travel(read_history(run_dir(out_dir, r["case"], method)), "sphere")
             line, = ax.plot(t / 1e3, x / 1e3, lw=1.5, label=f"{r['case']}: pmpm")
             ts = np.linspace(0, t[-1], 200)
@@ -98,10 +95,8 @@ def plot(path, rows, out_dir):
         ax.set_title(f"contact method {method}")
         ax.set_xlabel("t (s)")
         ax.legend(fontsize=8)
-    axes[0][0].set_ylabel("centre-of-mass travel along the incline (m)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    print("wrote", path)
+    panels[0][0].set_ylabel("centre-of-mass travel along the incline (m)")
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":

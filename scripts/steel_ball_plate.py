@@ -16,7 +16,7 @@ import argparse
 import json
 import os
 
-from _common import ROOT, run_case, save_json, pyplot, write_lines
+from _common import ROOT, run_case, save_json, pyplot, write_lines, save_figure
 
 from pmpm.post import body_index, body_points, perforation, read_frame, read_history
 
@@ -112,9 +112,7 @@ def plot(path, rows, out_dir):
         ax.set_xlabel("r (mm)")
         ax.set_ylabel("z (mm)")
         fig.colorbar(sc, ax=ax, label="eps_p")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    print("wrote", path)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":

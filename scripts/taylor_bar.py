@@ -7,7 +7,7 @@ Usage: .venv/bin/python scripts/taylor_bar.py [--ranks 2] [--fine]
 import argparse
 import os
 
-from _common import ROOT, run_case, save_json, pyplot, write_lines
+from _common import ROOT, run_case, save_json, pyplot, write_lines, save_figure
 
 from pmpm.post import read_frame, taylor_shape
 
@@ -84,9 +84,7 @@ def plot(path, rows, out_dir):
         ax.set_xlabel("r (mm)")
         ax.set_ylabel("z (mm)")
         fig.colorbar(sc, ax=ax, label="eps_p")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    print("wrote", path)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ import argparse
 import os
 
 import numpy as np
-from _common import ROOT, run_case, save_json, pyplot, write_lines
+from _common import ROOT, run_case, save_json, pyplot, write_lines, save_figure
 
 from pmpm.post import (axial_profiles, body_index, body_points, perforation, read_frame,
                        read_history, residual_velocity, rms_error,
@@ -84,9 +84,7 @@ def plot_wave(path, rows):
         ax.set_xlabel("x (mm)")
         ax.set_ylabel("sigma_xx / load")
     axes[0].legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    print("wrote", path)
+    save_figure(fig, path)
 
 
 # ---------------------------------------------------------------- Taylor bar (Sec. 5.2)

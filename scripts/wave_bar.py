@@ -12,7 +12,7 @@ import argparse
 import os
 
 import numpy as np
-from _common import ROOT, run_case, save_json, pyplot, write_lines
+from _common import ROOT, run_case, save_json, pyplot, write_lines, save_figure
 
 from pmpm.post import axial_profiles, rms_error, wave_bar_stress
 
@@ -82,9 +82,7 @@ def plot(path, profiles):
         ax.set_title(f"t = {1e3 * t:.1f} us")
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("x (mm)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    print("wrote", path)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":
