@@ -71,10 +71,11 @@ def rod_exit(out):
     hist = read_history(out)
     rod = body_history(hist, "rod")
     a = math.radians(OBLIQUITY)
-    exited = bool(rod["centroid"][-1, 2] < -THICK)
+    plate_normal = (math.sin(a), 0.0, math.cos(a))       # the case turns the plate about y
+    exited = bool(sum(n * c for n, c in zip(plate_normal, rod["centroid"][-1])) < -THICK)
     speed = residual_velocity(hist, "rod")
     return {"V_r": speed if exited else 0.0, "speed_end": speed, "exited": exited,
-            "along_path": residual_velocity(hist, "rod", (math.sin(a), 0.0, -math.cos(a))),
+            "along_path": residual_velocity(hist, "rod", (0.0, 0.0, -1.0)),
             "t_end": float(hist["time"][-1])}
 
 
