@@ -89,8 +89,7 @@ def write_table(path, rows):
         cells = []
         for m in methods:
             r = next((r for r in rows if r["v0"] == v0 and r["method"] == m), None)
-            cells.append("-" if r is None else
-                         f"{r['V_r']:.1f}{'' if r['exited'] else ' (in plate)'} ({r['paper']})")
+            cells.append("-" if r is None else f"{vr_text(r)} ({r['paper']})")
         exp = TABLE4.get(int(v0), (None,))[0]
         lines.append(f"| {v0:g} | {exp} | " + " | ".join(cells) + " |")
     check = next((r for r in rows if r["v0"] == 575 and r["method"] == 2), None)
@@ -99,8 +98,15 @@ def write_table(path, rows):
         lines.append(f"\nMethod 2 at 575 m/s: {check['V_r']:.1f} m/s, {100 * err:+.1f} % from the "
                      f"experiment's 455 ({'within' if abs(err) <= TOLERANCE else 'outside'} 5 %).")
     lines.append("\nMethod 0: standard MPM. V_r: rod speed at the end of the run (0 while the "
-                 "rod's centre of mass is still above the plate's far face).")
+                 "rod's centre of mass has not passed the plate's far face).")
     write_lines(path, lines)
+
+
+def vr_text(row):
+    """V_r, or for a rod still in the plate 0 and the speed it has at the end."""
+    if row["exited"]:
+        return f"{row['V_r']:.1f}"
+    return f"0 (in plate, {row['speed_end']:.1f} at the end)"
 
 
 def plot(path, rows):
