@@ -59,18 +59,24 @@ def measure(v0, method, args):
     sets += args.set
     summary = run_case(CASE, out, args.ranks, sets)
     paper = TABLE4.get(int(v0), (None,) * 4)
-    return {"v0": v0, "method": method, **rod_exit(out), "experiment": paper[0],
-            "paper": paper[1 + method], "n_particles": summary["n_particles"]["initial"],
+    return {"v0": v0, "method": method, **rod_exit(out, obliquity(sets)),
+            "experiment": paper[0], "paper": paper[1 + method], "n_particles": summary["n_particles"]["initial"],
             "particles_lost": summary["particles_lost"], "n_steps": summary["n_steps"],
             "wall_s": summary["wall_s"], "ranks": summary["ranks"],
             "particle_steps_per_s": summary["particle_steps_per_s"]}
 
 
-def rod_exit(out):
+def obliquity(sets):
+    """The plate's turn (deg): the case's 30 unless a --set gives params.obliquity."""
+    given = [item.split("=", 1)[1] for item in sets if item.startswith("params.obliquity=")]
+    return float(given[-1]) if given else OBLIQUITY
+
+
+def rod_exit(out, obliquity_deg=OBLIQUITY):
     """Residual speed of the rod, and whether its centre of mass has left the plate."""
     hist = read_history(out)
     rod = body_history(hist, "rod")
-    a = math.radians(OBLIQUITY)
+    a = math.radians(obliquity_deg)
     plate_normal = (math.sin(a), 0.0, math.cos(a))       # the case turns the plate about y
     exited = bool(sum(n * c for n, c in zip(plate_normal, rod["centroid"][-1])) < -THICK)
     speed = residual_velocity(hist, "rod")
