@@ -64,7 +64,8 @@ def measure(v0, method, args):
     summary = run_case(CASE, out, args.ranks, sets)
     paper = TABLE4.get(int(v0), (None,) * 4)
     return {"v0": v0, "method": method, **rod_exit(out, obliquity(sets)),
-            "experiment": paper[0], "paper": paper[1 + method], "n_particles": summary["n_particles"]["initial"],
+            "experiment": paper[0], "paper": paper[1 + method],
+            "n_particles": summary["n_particles"]["initial"],
             "particles_lost": summary["particles_lost"], "n_steps": summary["n_steps"],
             "wall_s": summary["wall_s"], "ranks": summary["ranks"],
             "particle_steps_per_s": summary["particle_steps_per_s"]}
