@@ -15,6 +15,7 @@ from runhelp import CASES, run_pmpm
 SLIDING = os.path.join(CASES, "sliding_block.yaml")
 BLOCKS = os.path.join(CASES, "two_blocks.yaml")
 BLOCK_MASS = 1000.0 * 0.02 ** 3                 # each cube of two_blocks.yaml (kg)
+NO_CHECK = np.full((2, 2), np.inf)              # no separation check (seed 001 Sec. 2.2)
 
 
 def history(out):
@@ -86,12 +87,12 @@ def test_stick_in_every_direction_gives_the_shared_field():
     slots = np.arange(n_slots)
     cvel, cnorm = np.empty((n_slots, nb, 3)), np.empty((n_slots, nb, 3))
     rigid = np.zeros(nb, np.bool_)
-    kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), rigid, 1, 0.0, *geometry,
-                     cvel, cnorm)
+    kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), NO_CHECK, rigid, 1, 0.0,
+                     *geometry, cvel, cnorm)
     assert np.allclose(cnorm[:, 0], -cnorm[:, 1])                 # collinear (Eq. 10)
     cnew = np.empty((n_slots, nb, 6))
     kc.contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, np.full((nb, nb), 1e30),
-                   rigid, False, dt, 0.0, *geometry, cnew)
+                   NO_CHECK, rigid, False, dt, 0.0, *geometry, cnew)
     assert np.allclose(cnew[:, 0, :3], gnew[:, :3]) and np.allclose(cnew[:, 1, :3], gnew[:, :3])
     momentum_change = (cnodal[:, :, :1] * cnew[:, :, 3:]).sum(axis=1)
     assert np.allclose(momentum_change, cforce.sum(axis=1), rtol=0, atol=1e-10)
@@ -117,10 +118,10 @@ def test_skip_separating_leaves_bodies_that_separated_at_the_start_of_the_step()
 
     def end_velocities(start_vx, method):
         cnodal[0, 0, 1], cnodal[0, 1, 1] = start_vx, -start_vx
-        kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), rigid, method, 0.0,
-                         *geometry, cvel, cnorm)
+        kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), NO_CHECK, rigid, method,
+                         0.0, *geometry, cvel, cnorm)
         kc.contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, np.zeros((nb, nb)),
-                       rigid, skip, dt, 0.0, *geometry, cnew)
+                       NO_CHECK, rigid, skip, dt, 0.0, *geometry, cnew)
         return cnew[0, 0, 0], cnew[0, 1, 0]
 
     skip = True
@@ -131,6 +132,41 @@ def test_skip_separating_leaves_bodies_that_separated_at_the_start_of_the_step()
     for method in (1, 2):
         assert end_velocities(-1.0, method) == pytest.approx((0.0, 0.0), abs=1e-12)
         assert end_velocities(1.0, method) == pytest.approx((0.0, 0.0), abs=1e-12)
+
+
+@pytest.mark.parametrize("method", [1, 2])
+def test_separation_check_leaves_bodies_with_a_gap_between_them_uncorrected(method):
+    """Two bodies approaching at a node: corrected (their normal velocities meet) when
+    their particles' mean positions there are 2/3 of a cell apart along the normal, as
+    touching surfaces are; left alone when 1.25 cells apart (a gap of about half a cell);
+    without the check (the paper's detection) corrected in both cases."""
+    nb, dt = 2, 1e-3
+    cnodal = np.zeros((1, nb, kc.CNODAL))
+    cnodal[0, :, 0] = [1.0, 3.0]
+    cnodal[0, 0, 1], cnodal[0, 1, 1] = 1.0, -3.0          # +1 and -1 m/s along x
+    cnodal[0, 0, 4:7], cnodal[0, 1, 4:7] = [1.0, 0.0, 0.0], [-3.0, 0.0, 0.0]
+    geometry = (np.array([1, 1, 1]), np.zeros(3, np.int64), np.array([1, 1, 1]),
+                np.array([10 ** 6] * 3), np.zeros(6, np.int64))
+    gvel = cnodal[:, :, 1:4].sum(axis=1) / cnodal[:, :, 0].sum(axis=1)[:, None]
+    gnew = np.concatenate([gvel, np.zeros((1, 3))], axis=1)
+    rigid, slots = np.zeros(nb, np.bool_), np.arange(1)
+    cvel, cnorm, cnew = np.empty((1, nb, 3)), np.empty((1, nb, 3)), np.empty((1, nb, 6))
+
+    def end_vx(apart, limit):
+        cnodal[0, 0, 7] = -cnodal[0, 0, 0] * apart / 2      # mass-weighted offsets (cells)
+        cnodal[0, 1, 7] = cnodal[0, 1, 0] * apart / 2
+        separation = np.full((nb, nb), limit)
+        kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), separation, rigid,
+                         method, 0.0, *geometry, cvel, cnorm)
+        kc.contact_end(cnodal, cvel, cnorm, np.zeros((1, nb, 3)), slots, gvel, gnew,
+                       np.zeros((nb, nb)), separation, rigid, False, dt, 0.0, *geometry, cnew)
+        return cnew[0, 0, 0], cnew[0, 1, 0]
+
+    centre_of_mass = (1.0 - 3.0) / 4.0
+    assert end_vx(2 / 3, 0.8) == pytest.approx((centre_of_mass, centre_of_mass))
+    assert end_vx(1.25, 0.8) == pytest.approx((1.0, -1.0))
+    for apart in (2 / 3, 1.25):
+        assert end_vx(apart, np.inf) == pytest.approx((centre_of_mass, centre_of_mass))
 
 
 BAD_CONTACT = [
@@ -144,6 +180,9 @@ BAD_CONTACT = [
      "contact.pairs[0].normal: must be average, stiffer or one of the pair's bodies"),
     ({"method": 2, "pairs": [{"bodies": ["left", "left"]}]},
      "contact.pairs[0].bodies: a body cannot be in contact with itself"),
+    ({"method": 2, "separation": 0}, "contact.separation: must be > 0"),
+    ({"method": 2, "pairs": [{"bodies": ["left", "right"], "separation": -0.5}]},
+     "contact.pairs[0].separation: must be > 0"),
 ]
 
 

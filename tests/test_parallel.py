@@ -3,6 +3,7 @@ rebalancing; and summary bookkeeping of the decomposition."""
 import os
 
 import numpy as np
+import pytest
 
 from pmpm.post import read_frame, read_summary
 from runhelp import CASES, run_pmpm
@@ -37,10 +38,12 @@ def test_mass_is_conserved_and_nothing_is_lost(tmp_path):
     assert last["mass"].sum() == first["mass"].sum()
 
 
-def test_contact_across_the_slab_plane_matches_one_rank(tmp_path):
-    """Contact method 2 (per-body fields, normals and contact forces summed on the slab
-    plane, which cuts the plate the ball perforates) gives the same answer on 2 ranks."""
-    sets = ["contact.method=2"]
+@pytest.mark.parametrize("check", [[], ["contact.separation=0.9"]], ids=["paper", "separation"])
+def test_contact_across_the_slab_plane_matches_one_rank(tmp_path, check):
+    """Contact method 2 (per-body fields, normals, particle offsets for the separation
+    check and contact forces summed on the slab plane, which cuts the plate the ball
+    perforates) gives the same answer on 2 ranks."""
+    sets = ["contact.method=2", *check]
     run_pmpm(CASE, tmp_path / "one", sets=sets)
     run_pmpm(CASE, tmp_path / "two", ranks=2, sets=sets)
     a, b = read_frame(tmp_path / "one"), read_frame(tmp_path / "two")

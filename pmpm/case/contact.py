@@ -4,16 +4,19 @@
       method: 2             # none (one shared velocity field: standard MPM), 1 or 2
       friction: 0.1         # Coulomb coefficient of every pair not listed below
       normal: average       # collinear normals: average (Eq. 10), stiffer, or a body name
+      separation: 0.9       # optional: contact only where the bodies are at most 0.9
+                            # cells apart at a node (absent or none: the paper's detection)
       pairs:                # optional: per pair of bodies
         - bodies: [ball, plate]
           friction: 0.0
           normal: ball      # the named body's own normal (Sec. 2.3 choices 1 and 2)
+          separation: 0.9
 
 With method 1 or 2 every body has its own velocity field at nodes that two or more
 bodies reach, and every pair of bodies is in contact.
 """
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Field, at_least, boolean, list_of, number,
+from .fields import (INVALID, OMIT, Field, at_least, boolean, greater, list_of, number,
                      read_mapping, text, valid)
 
 METHODS = {"none": 0, "0": 0, "1": 1, "2": 2}
@@ -39,8 +42,16 @@ def read_pair_bodies(raw, path, problems):
 
 
 FRICTION = Field(number(at_least(0)), 0.0)
+def read_separation(raw, path, problems):
+    """Cells > 0, or none (null): no separation check, the paper's detection."""
+    if raw is None or str(raw).strip().lower() == "none":
+        return None
+    return number(greater(0))(raw, path, problems)
+
+
+SEPARATION = Field(read_separation, OMIT)
 PAIR = {"bodies": Field(read_pair_bodies), "friction": Field(number(at_least(0)), OMIT),
-        "normal": Field(text(), OMIT)}
+        "normal": Field(text(), OMIT), "separation": SEPARATION}
 
 
 def read_pair(raw, path, problems):
@@ -49,7 +60,7 @@ def read_pair(raw, path, problems):
 
 CONTACT = {"method": Field(read_method, 0), "friction": FRICTION,
            "skip_separating": Field(boolean(), False),
-           "normal": Field(text(), "average"),
+           "normal": Field(text(), "average"), "separation": SEPARATION,
            "pairs": Field(list_of(read_pair, 0, "pair"), [])}
 
 

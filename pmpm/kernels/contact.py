@@ -6,21 +6,24 @@ field of the one body there. Contact nodes are numbered in increasing local node
 ("slots"), so the slots of one slab plane are one contiguous range.
 
 Per-slot arrays, shape (n_slots, n_bodies, c):
-``cnodal`` c = 7: mass, momentum (3), mass gradient sum_p m_p G_ip (3) (Eq. 9: it
-points from a body's particles out to the node);
+``cnodal`` c = 10: mass, momentum (3), mass gradient sum_p m_p G_ip (3) (Eq. 9: it
+points from a body's particles out to the node), and the mass-weighted offset of the
+particles from the node in cells, sum_p m_p N_ip (x_p - x_i)/h (3), for the
+separation check;
 ``cvel`` c = 3: velocity at the start of the step (Eq. 6; Eq. 25 applied by method 2);
 ``cnorm`` c = 3: collinear unit outward normal (Sec. 2.3);
 ``cforce`` c = 3: internal + external force of the body alone (Eq. 31);
 ``cnew`` c = 6: velocity at the end of the step (Eq. 14) and acceleration (Eq. 34).
 
-Pair tables, shape (n_bodies, n_bodies): ``friction`` (Coulomb mu) and ``master``
-(-1: average of the two normals, Eq. 10; else the body whose own normal both use).
+Pair tables, shape (n_bodies, n_bodies): ``friction`` (Coulomb mu), ``master``
+(-1: average of the two normals, Eq. 10; else the body whose own normal both use) and
+``separation`` (cells; inf: no separation check).
 """
 import numpy as np
 from numba import njit
 
 FIXED, SLIP = 2, 1
-CNODAL, CVEL, CNEW = 7, 3, 6
+CNODAL, CVEL, CNEW = 10, 3, 6
 
 
 @njit(cache=True)
@@ -62,8 +65,9 @@ def number_contact_nodes(mask, slot_of):
 @njit(cache=True)
 def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot_of, cnodal,
                               level, want):
-    """Each body's mass, momentum and mass gradient at the contact nodes (Eqs. 27-28, 9),
-    from the particles with ``level[p] == want``."""
+    """Each body's mass, momentum, mass gradient (Eqs. 27-28, 9) and mass-weighted
+    offset from the node (in cells) at the contact nodes, from the particles with
+    ``level[p] == want``."""
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
@@ -92,6 +96,9 @@ def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot
                     cnodal[s, b, 4] += m * dx * wy * wz
                     cnodal[s, b, 5] += m * wx * dy * wz
                     cnodal[s, b, 6] += m * wx * wy * dz
+                    cnodal[s, b, 7] += mw * (r0 - a)
+                    cnodal[s, b, 8] += mw * (r1 - bb)
+                    cnodal[s, b, 9] += mw * (r2 - cc)
 
 
 @njit(cache=True, inline="always")
@@ -169,13 +176,29 @@ def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
     _normalise(out)
 
 
+@njit(cache=True, inline="always")
+def _separated(cnodal, s, b, other, normal, limit):
+    """True when the mean positions of the particles of b and of ``other`` at slot s lie
+    more than ``limit`` cells apart along b's outward normal: the surfaces still have a
+    gap between them, whatever their velocities (the displacement check of Lemiale et
+    al. 2010 and Nairn 2013, with positions). With linear shape functions touching flat
+    surfaces are 2/3 to 3/4 of a cell apart where both bodies reach the node well, up to
+    1 cell where one barely does; a gap adds to that."""
+    gap = 0.0
+    for d in range(3):
+        gap += (cnodal[s, other, 7 + d] / cnodal[s, other, 0]
+                - cnodal[s, b, 7 + d] / cnodal[s, b, 0]) * normal[d]
+    return gap > limit
+
+
 @njit(cache=True)
-def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
+def contact_start(cnodal, slot_nodes, gvel, master, separation, body_rigid, method, m_tiny,
                   shape, lo, strides, n_cells, bc, cvel, cnorm):
     """Per-body velocities (Eq. 6) and collinear normals at the contact nodes; method 2
     sets the normal velocity of each approaching body to the centre of mass's (Eqs. 23,
-    25, slip form), within the node's boundary conditions. ``gvel`` is the shared
-    (centre-of-mass, Eq. 7) velocity."""
+    25, slip form), within the node's boundary conditions, unless the two bodies are
+    separated there (:func:`_separated`). ``gvel`` is the shared (centre-of-mass, Eq. 7)
+    velocity."""
     mask = np.zeros(3, np.int64)
     vec = np.empty(3)
     rest = np.empty(3)
@@ -192,7 +215,8 @@ def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
                 other = _heaviest_other(cnodal, s, b, m_tiny)
                 if other >= 0:
                     _collinear_normal(cnodal, s, b, other, master, mask, rest, cnorm[s, b])
-                    if method == 2 and not body_rigid[b]:
+                    if method == 2 and not body_rigid[b] and not _separated(
+                            cnodal, s, b, other, cnorm[s, b], separation[b, other]):
                         approach = 0.0
                         for d in range(3):
                             approach += (vec[d] - gvel[n, d]) * cnorm[s, b, d]
@@ -205,11 +229,13 @@ def contact_start(cnodal, slot_nodes, gvel, master, body_rigid, method, m_tiny,
 
 
 @njit(cache=True)
-def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, body_rigid,
-                skip_separating, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew):
+def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, separation,
+                body_rigid, skip_separating, dt, m_tiny, shape, lo, strides, n_cells, bc,
+                cnew):
     """Trial velocities of each body alone (Eqs. 11, 26); where a body approaches the
-    centre of mass (Eq. 12) the contact force of Eq. 22 (normal part Eq. 17, no-slip
-    tangential part Eq. 21 limited by Coulomb friction) corrects it (Eq. 14).
+    centre of mass (Eq. 12) and is not separated from the other body (:func:`_separated`)
+    the contact force of Eq. 22 (normal part Eq. 17, no-slip tangential part Eq. 21
+    limited by Coulomb friction) corrects it (Eq. 14).
     ``gnew[:, :3]`` is the shared trial velocity, i.e. the centre of mass's (Eq. 13),
     ``gvel`` the start-of-step one.
 
@@ -235,7 +261,8 @@ def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, b
                 acc[d] = cforce[s, b, d] / m
             _constrain(acc, mask)
             other = _heaviest_other(cnodal, s, b, m_tiny)
-            if other >= 0:
+            if other >= 0 and not _separated(cnodal, s, b, other, cnorm[s, b],
+                                             separation[b, other]):
                 approach = 0.0
                 for d in range(3):
                     approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]

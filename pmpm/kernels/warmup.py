@@ -35,7 +35,8 @@ def warm_up():
     cvel, cforce, cnew = np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1, 6))
     contact.contact_particles_to_grid(x, v, ones, body, origin, inv_h, lo, strides, slot_of,
                                       cnodal, level, 0)
-    contact.contact_start(cnodal, slot_nodes, gvel, np.zeros((1, 1), np.int64), rigid, 2, 0.0,
+    contact.contact_start(cnodal, slot_nodes, gvel, np.zeros((1, 1), np.int64),
+                          np.full((1, 1), np.inf), rigid, 2, 0.0,
                           shape, lo, strides, n_cells, bc, cvel, cvel)
     mpm.stress_and_forces(x, v, ones.copy(), ones.copy(), np.zeros((1, 6)),
                           np.eye(3).reshape(1, 9).copy(), np.zeros(1), np.zeros(1), np.zeros(1),
@@ -45,7 +46,8 @@ def warm_up():
                           True, slot_of, cvel, cforce, level, 0)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, shape, lo, strides, n_cells, bc, 0.0, gnew)
     contact.contact_end(cnodal, cvel, cvel, cforce, slot_nodes, gvel, gnew, np.zeros((1, 1)),
-                        rigid, True, 1e-3, 0.0, shape, lo, strides, n_cells, bc, cnew)
+                        np.full((1, 1), np.inf), rigid, True, 1e-3, 0.0, shape, lo, strides,
+                        n_cells, bc, cnew)
     mpm.grid_to_particles(x, v, body, rigid, 1e-3, origin, inv_h, lo, strides, gnew,
                           True, slot_of, cnew, level, 0)
     mpm.cell_keys(x, origin, inv_h, n_cells)

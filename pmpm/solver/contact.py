@@ -20,6 +20,8 @@ class ContactRules:
     method : int    0 (none: one shared field), 1 or 2 (seed 001 Secs. 3.1, 3.2)
     friction : (nb, nb) float64
     master : (nb, nb) int64   -1: average of the two normals (Eq. 10); else a body index
+    separation : (nb, nb) float64   cells; contact needs the two bodies' mean positions at
+        a node at most this far apart along the normal (inf: no check, seed 001 Sec. 2.2)
     """
 
     def __init__(self, contact, bodies):
@@ -30,6 +32,7 @@ class ContactRules:
         if self.method and nb > MAX_BODIES:
             raise ValueError(f"contact: at most {MAX_BODIES} bodies, got {nb}")
         self.friction = np.full((nb, nb), float(contact.get("friction", 0.0)))
+        self.separation = np.full((nb, nb), _limit(contact.get("separation")))
         self.master = np.full((nb, nb), -1, np.int64)
         default = contact.get("normal", "average")
         stiffness = [_stiffness(bodies, b) for b in range(nb)]
@@ -41,12 +44,18 @@ class ContactRules:
             a, b = (names.index(name) for name in pair["bodies"])
             mu = float(pair.get("friction", contact.get("friction", 0.0)))
             self.friction[a, b] = self.friction[b, a] = mu
+            if "separation" in pair:                # none here: no check for this pair
+                self.separation[a, b] = self.separation[b, a] = _limit(pair["separation"])
             rule = pair.get("normal", default)
             self.master[a, b] = self.master[b, a] = _master(rule, a, b, names, stiffness)
 
     @property
     def active(self):
         return self.method > 0
+
+
+def _limit(separation):
+    return np.inf if separation is None else float(separation)
 
 
 def _stiffness(bodies, b):
@@ -114,8 +123,9 @@ class ContactFields:
         return flat.reshape(rows, n_bodies, width)
 
     def map_particles(self, particles, grid, block, n_bodies, level_of, want, ties=None):
-        """Per-body mass, momentum and mass gradient at the contact nodes of one grid
-        level (``grid``: a ``pmpm.grid.Level``) from its particles (``level_of == want``)."""
+        """Per-body mass, momentum, mass gradient and mean offset at the contact nodes of
+        one grid level (``grid``: a ``pmpm.grid.Level``) from its particles
+        (``level_of == want``)."""
         p = particles
         self.find_contact_nodes(p, grid, block, level_of, want, ties)
         self.cnodal = self.slot_array("cnodal", kc.CNODAL, n_bodies)
@@ -128,19 +138,19 @@ class ContactFields:
         nb = self.cnodal.shape[1]
         self.cvel = self.slot_array("cvel", 3, nb, zero=False)
         self.cnorm = self.slot_array("cnorm", 3, nb, zero=False)
-        kc.contact_start(self.cnodal, self.slot_nodes, gvel, self.rules.master, bodies.rigid,
-                         self.rules.method, self.m_tiny, block.shape, block.lo, block.strides,
-                         grid.n_cells, grid.boundary, self.cvel, self.cnorm)
+        kc.contact_start(self.cnodal, self.slot_nodes, gvel, self.rules.master,
+                         self.rules.separation, bodies.rigid, self.rules.method, self.m_tiny,
+                         block.shape, block.lo, block.strides, grid.n_cells, grid.boundary,
+                         self.cvel, self.cnorm)
         self.cforce = self.slot_array("cforce", 3, nb)
 
     def end_velocities(self, gvel, gnew, bodies, dt, grid, block):
         self.sum_on_shared_planes(block, self.cforce)
         self.cnew = self.slot_array("cnew", kc.CNEW, self.cnodal.shape[1], zero=False)
         kc.contact_end(self.cnodal, self.cvel, self.cnorm, self.cforce, self.slot_nodes, gvel,
-                       gnew,
-                       self.rules.friction, bodies.rigid, self.rules.skip_separating, dt,
-                       self.m_tiny, block.shape,
-                       block.lo, block.strides, grid.n_cells, grid.boundary, self.cnew)
+                       gnew, self.rules.friction, self.rules.separation, bodies.rigid,
+                       self.rules.skip_separating, dt, self.m_tiny, block.shape, block.lo,
+                       block.strides, grid.n_cells, grid.boundary, self.cnew)
 
     @property
     def n_slots(self):
