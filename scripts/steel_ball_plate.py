@@ -10,7 +10,9 @@ along the line of flight, including its thickness). Perforated: the plate has a 
 the ball still moves on at more than 0.1 v0 (a ball held in the hole by the petals is not).
 
 Usage: .venv/bin/python scripts/steel_ball_plate.py [--ranks 2] [--methods 0 1 2]
-                                                   [--cells 0.66]
+                                                   [--cells 0.66] [--set KEY=VALUE]
+                                                   [--out DIR]
+(--set: case overrides for every run, e.g. --set contact.separation=0.9)
 """
 import argparse
 import json
@@ -34,6 +36,8 @@ def main():
     parser.add_argument("--methods", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--cells", type=float, nargs="+", default=[0.66])
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "steel_ball_plate"))
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="case override applied to every run")
     parser.add_argument("--plot-only", action="store_true", help="re-plot saved results")
     args = parser.parse_args()
     if args.plot_only:
@@ -51,7 +55,8 @@ def run_dir(out, cell, method):
 
 def measure(cell, method, args):
     out = run_dir(args.out, cell, method)
-    summary = run_case(CASE, out, args.ranks, [f"params.cell={cell}", f"params.method={method}"])
+    summary = run_case(CASE, out, args.ranks,
+                       [f"params.cell={cell}", f"params.method={method}", *args.set])
     paper = TABLE2.get(cell, {}).get(method, (None, None))
     return {"cell": cell, "method": method, **ball_and_plate(out, cell / 2),
             "paper_V_r": paper[0], "paper_h_over_D": paper[1],
