@@ -41,7 +41,6 @@ def read_pair_bodies(raw, path, problems):
     return list(raw)
 
 
-FRICTION = Field(number(at_least(0)), 0.0)
 def read_separation(raw, path, problems):
     """Cells > 0, or none (null): no separation check, the paper's detection."""
     if raw is None or str(raw).strip().lower() == "none":
@@ -49,6 +48,7 @@ def read_separation(raw, path, problems):
     return number(greater(0))(raw, path, problems)
 
 
+FRICTION = Field(number(at_least(0)), 0.0)
 SEPARATION = Field(read_separation, OMIT)
 PAIR = {"bodies": Field(read_pair_bodies), "friction": Field(number(at_least(0)), OMIT),
         "normal": Field(text(), OMIT), "separation": SEPARATION}
