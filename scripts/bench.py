@@ -6,15 +6,28 @@ identical work, parallel efficiency, and peak memory per particle, for
 - the Taylor bar on a tied interface grid (0.38 mm window, 0.76 mm outside; 0.02 ms),
 - the steel ball on the 1 mm plate at 0.66 mm with contact method 2 and without (0.03 ms).
 
-Writes results/bench/bench.{json,md}. The machine this was written for has 2 cores:
-more ranks than cores need --oversubscribe (passed always) and make no sense to time.
+Writes results/bench/bench.{json,md}; bench.json also records the commit, date, command
+and machine. The machine this was written for has 2 cores: more ranks than cores need
+--oversubscribe (passed always) and make no sense to time.
+
+--repeat N runs every case N times, the repeats interleaved (all cases once, then all
+again), so that each case's runs spread over the same stretch of time; the page gives
+medians. --page PATH then writes the performance page (scripts/performance_page.py);
+--page-only writes it from an existing bench.json without measuring.
 
 Usage: .venv/bin/python scripts/bench.py [--ranks 1 2] [--small] [--only CASE ...]
+                                         [--repeat N] [--page docs/performance.md]
+       .venv/bin/python scripts/bench.py --page-only [--page docs/performance.md]
 """
 import argparse
+import datetime
 import os
+import platform
+import subprocess
+import sys
 
 from _common import ROOT, run_case, save_json, write_lines
+import performance_page
 
 CASES = {
     "block_1M": ("runs/bench_block.yaml", []),
@@ -38,18 +51,50 @@ def main():
     parser.add_argument("--small", action="store_true", help="125k-particle block (quick)")
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "bench"))
     parser.add_argument("--only", nargs="+", choices=sorted(CASES), help="these cases only")
+    parser.add_argument("--repeat", type=int, default=1, help="runs of each case, interleaved")
+    parser.add_argument("--page", metavar="PATH", help="write the performance page here "
+                        "(e.g. docs/performance.md)")
+    parser.add_argument("--page-only", action="store_true", help="no measuring: write the page "
+                        "(default docs/performance.md) from the existing bench.json")
     args = parser.parse_args()
+    json_path = os.path.join(args.out, "bench.json")
+    if args.page_only and not os.path.exists(json_path):
+        parser.error(f"--page-only: no {json_path}; run the benchmarks first")
+    if not args.page_only:
+        measure_all(args, json_path)
+    if args.page or args.page_only:
+        performance_page.write_page(json_path, args.page or performance_page.DEFAULT_PAGE)
+
+
+def measure_all(args, json_path):
+    chosen = {name: spec for name, spec in CASES.items() if not args.only or name in args.only}
+    cases = {name: {"file": case, "set": list(sets) + (["params.edge=25"] if args.small and
+                                                        "block" in name else [])}
+             for name, (case, sets) in chosen.items()}
     results = []
-    for name, (case, sets) in CASES.items():
-        if args.only and name not in args.only:
-            continue
-        sets = list(sets) + (["params.edge=25"] if args.small and "block" in name else [])
-        for ranks in args.ranks:
-            out = os.path.join(args.out, f"{name}_{ranks}")
-            results.append(measure(name, case, sets, ranks, out))
+    for repeat in range(args.repeat):
+        for name, spec in cases.items():
+            for ranks in args.ranks:
+                out = os.path.join(args.out, f"{name}_{ranks}")
+                results.append(dict(measure(name, spec["file"], spec["set"], ranks, out),
+                                    repeat=repeat))
     add_efficiency(results)
-    save_json(os.path.join(args.out, "bench.json"), results)
+    save_json(json_path, dict(provenance(), cases=cases, results=results))
     write_table(os.path.join(args.out, "bench.md"), results)
+
+
+def provenance():
+    """Which code, when, how and where: the header of the performance page."""
+    def git(*argv):
+        done = subprocess.run(["git", *argv], cwd=ROOT, capture_output=True, text=True)
+        return done.stdout.strip() if done.returncode == 0 else ""
+    commit = git("rev-parse", "--short", "HEAD") or "unknown"
+    if git("status", "--porcelain", "--untracked-files=no"):
+        commit += " with uncommitted changes"
+    return {"commit": commit,
+            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "command": " ".join(["python scripts/bench.py"] + sys.argv[1:]),
+            "machine": f"{platform.machine()} {platform.system()}, {os.cpu_count()} CPUs"}
 
 
 def measure(name, case, sets, ranks, out):
@@ -64,7 +109,8 @@ def measure(name, case, sets, ranks, out):
 
 def add_efficiency(results):
     for r in results:
-        base = next((b for b in results if b["case"] == r["case"] and b["ranks"] == 1), None)
+        base = next((b for b in results if b["case"] == r["case"] and b["ranks"] == 1
+                     and b.get("repeat") == r.get("repeat")), None)
         r["efficiency"] = r["per_rank"] / base["per_rank"] if base else None
 
 
