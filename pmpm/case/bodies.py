@@ -5,39 +5,61 @@ import os
 import re
 
 from .errors import join
-from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, integer,
-                     valid, mapping, number, read_mapping, read_tagged, text, vector)
+from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, Tagged, at_least,
+                     choice, greater, has_invalid, integer, valid, mapping, number, text,
+                     vector)
 from .fill import fill_geometry
 from .mesh import MeshReadError
 from .shapes import AXES, nose_length, reference_point
 
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
-POSITIVE = Field(number(greater(0)))
-POINT = Field(vector())
+
+
+def point(doc, default=REQUIRED):
+    """A position (mm)."""
+    return Field(vector(), default, "mm", doc)
+
+
+def size(doc):
+    """A length > 0 (mm), required."""
+    return Field(number(greater(0)), unit="mm", doc=doc)
+
 
 GEOMETRIES = {
-    "box": {"min": POINT, "max": POINT},
-    "cylinder": {"base": POINT, "axis": Field(choice(AXES, "axis")), "radius": POSITIVE,
-                 "length": POSITIVE, "inner_radius": Field(number(at_least(0)), 0.0)},
-    "sphere": {"center": POINT, "radius": POSITIVE},
-    "ogive": {"tip": Field(vector(), OMIT), "base": Field(vector(), OMIT),
-              "direction": Field(vector(nonzero=True)), "length": POSITIVE,
-              "diameter": POSITIVE, "crh": Field(number(at_least(0.5)))},
-    "mesh": {"file": Field(text()), "scale": Field(number(greater(0)), 1.0),
-             "translate": Field(vector(), [0.0, 0.0, 0.0])},
+    "box": {"min": point("lower corner"), "max": point("upper corner (min < max)")},
+    "cylinder": {
+        "base": point("centre of the base"),
+        "axis": Field(choice(AXES, "axis"), doc="the axis the cylinder runs along from base"),
+        "radius": size("outer radius"),
+        "length": size("length along the axis"),
+        "inner_radius": Field(number(at_least(0)), 0.0, "mm",
+                              "inner radius, < radius (> 0: a tube or a ring)")},
+    "sphere": {"center": point("centre"), "radius": size("radius")},
+    "ogive": {
+        "tip": point("the tip of the nose (give tip or base)", OMIT),
+        "base": point("the centre of the flat end (give tip or base)", OMIT),
+        "direction": Field(vector(nonzero=True),
+                           doc="from base to tip, any length (stored as a unit vector)"),
+        "length": size("total length, nose included: at least the nose length "
+                       "diameter * sqrt(crh - 1/4)"),
+        "diameter": size("shank diameter"),
+        "crh": Field(number(at_least(0.5)), unit="1",
+                     doc="caliber-radius-head psi: the nose is a tangent ogive of radius "
+                         "psi * diameter (0.5: a hemisphere, 3: a 3-CRH projectile)")},
+    "mesh": {
+        "file": Field(text(), doc="a volume mesh meshio reads (tetra and hexahedron cells "
+                                  "are used, others ignored), relative to the case file"),
+        "scale": Field(number(greater(0)), 1.0, "1",
+                       "the mesh's points x are placed at scale * x + translate"),
+        "translate": point("where the mesh's origin lands", [0.0, 0.0, 0.0])},
 }
-ROTATE = {"axis": Field(vector(nonzero=True)), "angle_deg": Field(number()),
-          "origin": Field(vector(), OMIT)}
-
-
-def read_body(raw, path, problems):
-    fields = {
-        "name": Field(_body_name), "material": Field(text()),
-        "geometry": Field(read_geometry),
-        "particles_per_cell": Field(integer(at_least(1)), 2),
-        "velocity": Field(vector(), [0.0, 0.0, 0.0]),
-    }
-    return read_mapping(raw, path, fields, problems)
+ROTATE = {
+    "axis": Field(vector(nonzero=True), doc="the rotation axis"),
+    "angle_deg": Field(number(), unit="deg", doc="right-handed angle about the axis"),
+    "origin": point("the point the body turns about (left out: the reference point: box "
+                    "min, cylinder base, sphere center, ogive base or else tip, mesh "
+                    "translate)", OMIT),
+}
 
 
 def _body_name(value, path, problems):
@@ -49,15 +71,41 @@ def _body_name(value, path, problems):
     return name
 
 
-def read_geometry(raw, path, problems):
-    common = {"rotate": Field(mapping(ROTATE), OMIT)}
-    geometry = read_tagged(raw, path, GEOMETRIES, problems, "geometry type", common)
+def _complete_geometry(geometry, path, problems):
+    """The checks of the geometry's type; a rotation's origin defaults to the reference
+    point."""
     if geometry is INVALID:
         return geometry
     CHECKS[geometry["type"]](geometry, path, problems)
     if "rotate" in geometry and not has_invalid(geometry):
         geometry["rotate"].setdefault("origin", reference_point(geometry))
     return geometry
+
+
+GEOMETRY_DOCS = {
+    "box": "an axis-aligned box (rotate it for an oblique plate); reference point: min",
+    "cylinder": "a solid or hollow circular cylinder along x, y or z; reference point: base",
+    "sphere": "a sphere; reference point: center",
+    "ogive": "a cylindrical shank with a tangent-ogive nose of radius crh * diameter and "
+             "length diameter * sqrt(crh - 1/4); reference point: base, or tip when only "
+             "the tip is given",
+    "mesh": "the lattice points inside the tetrahedra and hexahedra of a volume mesh "
+            "(.msh, .vtu, .vtk, .inp, .med, ...); reference point: translate",
+}
+ROTATION = Field(mapping(ROTATE), OMIT, doc="turn the body, filled in its own frame, about "
+                                            "an axis (below)")
+GEOMETRY = Checked(Tagged(GEOMETRIES, "geometry type", {"rotate": ROTATION}, GEOMETRY_DOCS),
+                   _complete_geometry)
+BODY = mapping({
+    "name": Field(Custom(_body_name, "string of letters, digits, _, -"),
+                  doc="unique; names become history.csv column names"),
+    "material": Field(text(), doc="a key of materials"),
+    "geometry": Field(GEOMETRY, doc="the shape filled with particles"),
+    "particles_per_cell": Field(integer(at_least(1)), 2,
+                                doc="particles per cell per direction (2: 8 per cell)"),
+    "velocity": Field(vector(), [0.0, 0.0, 0.0], "mm/ms",
+                      "initial velocity (global axes, not rotated)"),
+})
 
 
 def check_min_below_max(box, path, problems):

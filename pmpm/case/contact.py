@@ -16,8 +16,8 @@ With method 1 or 2 every body has its own velocity field at nodes that two or mo
 bodies reach, and every pair of bodies is in contact.
 """
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Field, at_least, boolean, greater, list_of, number,
-                     read_mapping, text, valid)
+from .fields import (INVALID, OMIT, Custom, Field, at_least, boolean, greater, list_of,
+                     mapping, number, text, valid)
 
 METHODS = {"none": 0, "0": 0, "1": 1, "2": 2}
 NORMAL_RULES = ("average", "stiffer")
@@ -48,24 +48,51 @@ def read_separation(raw, path, problems):
     return number(greater(0))(raw, path, problems)
 
 
-FRICTION = Field(number(at_least(0)), 0.0)
-SEPARATION = Field(read_separation, OMIT)
-PAIR = {"bodies": Field(read_pair_bodies), "friction": Field(number(at_least(0)), OMIT),
-        "normal": Field(text(), OMIT), "separation": SEPARATION}
-
-
-def read_pair(raw, path, problems):
-    return read_mapping(raw, path, PAIR, problems)
-
-
-CONTACT = {"method": Field(read_method, 0), "friction": FRICTION,
-           "skip_separating": Field(boolean(), False),
-           "normal": Field(text(), "average"), "separation": SEPARATION,
-           "pairs": Field(list_of(read_pair, 0, "pair"), [])}
-
-
-def read_contact(raw, path, problems):
-    return read_mapping(raw, path, CONTACT, problems)
+SEPARATION = Custom(read_separation, "number > 0, or `none`")
+NORMAL = "`average`, `stiffer`"
+PAIR = {
+    "bodies": Field(Custom(read_pair_bodies, "two body names"),
+                    doc="the two bodies of the pair, e.g. [ball, plate]"),
+    "friction": Field(number(at_least(0)), OMIT, "1",
+                      "Coulomb coefficient of this pair (left out: contact.friction)"),
+    "normal": Field(Custom(text(), NORMAL + ", or a body of the pair"), OMIT,
+                    doc="as contact.normal, or one of the pair's two bodies: that body's own "
+                        "normal, e.g. of a flat or convex surface (Sec. 2.3 choice 2; left "
+                        "out: contact.normal)"),
+    "separation": Field(SEPARATION, OMIT, "cells",
+                        "as contact.separation, for this pair (`none`: no check for this "
+                        "pair; left out: contact.separation)"),
+}
+CONTACT = {
+    "method": Field(Custom(read_method, "`none`, `1`, `2`"), 0,
+                    doc="`none` (stored as 0): one shared velocity field, standard MPM, "
+                        "where bodies that meet stick together; 1: every body has its own "
+                        "velocity field at the nodes two or more bodies reach, and the "
+                        "impenetrability condition is imposed on the trial velocities at the "
+                        "end of the step (Sec. 3.1); 2: also on the velocities the stresses "
+                        "are updated with, at the start of the step (Sec. 3.2, Eqs. 23-25)"),
+    "friction": Field(number(at_least(0)), 0.0, "1",
+                      "Coulomb coefficient of every pair not listed in pairs"),
+    "skip_separating": Field(boolean(), False,
+                             doc="method 2 only: at the end of a step, leave uncorrected a "
+                                 "body that separated from the centre of mass at its start "
+                                 "(Eq. 23 false) even if its trial velocity approaches "
+                                 "(Eq. 12); the paper corrects it, which does positive work "
+                                 "on particles whose velocities still separate"),
+    "normal": Field(Custom(text(), NORMAL), "average",
+                    doc="how the two bodies' normals (Eq. 9) are made collinear (Sec. 2.3): "
+                        "`average` is Eq. 10; `stiffer` uses the stiffer body's own normal "
+                        "for both (wave modulus K + 4G/3, rigid bodies stiffest; equal: "
+                        "average)"),
+    "separation": Field(SEPARATION, OMIT, "cells",
+                        "the separation check: a node is in contact only if the mass- and "
+                        "shape-function-weighted mean positions of the two bodies' particles "
+                        "there lie at most this many cell sizes (of the node's grid level) "
+                        "apart along the normal; left out or `none`: no check, the paper's "
+                        "detection (Sec. 2.2)"),
+    "pairs": Field(list_of(mapping(PAIR), 0, "pair"), [],
+                   doc="the pairs of bodies with their own friction, normal or separation"),
+}
 
 
 def check_contact(contact, body_names, problems):

@@ -7,8 +7,8 @@ constants (exactly two of E, nu, K, G), ``eos``, ``bulk_viscosity`` and ``eps_fa
 from pmpm.materials import catalog
 
 from .errors import join
-from .fields import (INVALID, OMIT, REQUIRED, Field, at_least, at_most, between, choice,
-                     greater, mapping, number, read_mapping, read_tagged, valid)
+from .fields import (INVALID, OMIT, REQUIRED, Field, NamedItems, Tagged, at_least, at_most,
+                     between, choice, greater, mapping, number, read_mapping, valid)
 
 # Physical range of each named parameter (catalog names); names not listed: any number.
 PARAM_CHECKS = {
@@ -22,16 +22,39 @@ PARAM_CHECKS = {
     "gamma0": [at_least(0)], "linear": [at_least(0)], "quadratic": [at_least(0)],
     "eps_fail": [at_least(0)],
 }
+ELASTIC = {"E": ("MPa", "Young's modulus"), "nu": ("1", "Poisson's ratio"),     # unit, doc
+           "K": ("MPa", "bulk modulus"), "G": ("MPa", "shear modulus")}
+TWO_OF = "; give exactly two of E, nu, K, G (the solver derives the others)"
 
 
-def read_materials(raw, problems):
-    """Validated ``{name: material}``; INVALID if the section is not a mapping."""
-    if not isinstance(raw, dict) or not raw:
-        problems.add("materials", "expected a mapping of material name: {model: ..., ...} "
-                     "with at least one material")
-        return INVALID
-    return {str(name): read_material(value, join("materials", str(name)), problems)
-            for name, value in raw.items()}
+def _param_fields(params):
+    """Fields of catalog parameters (catalog default None: required; unit "-": "1")."""
+    return {name: Field(number(*PARAM_CHECKS.get(name, [])), _default(p.default),
+                        "1" if p.unit == "-" else p.unit, p.doc)
+            for name, p in params.items()}
+
+
+def _default(default):
+    return REQUIRED if default is None else float(default)
+
+
+MODEL = Field(choice(catalog.MODELS, "model"), doc="the material model (below)")
+ELASTIC_FIELDS = {name: Field(number(*PARAM_CHECKS[name]), OMIT, ELASTIC[name][0],
+                              ELASTIC[name][1] + TWO_OF)
+                  for name in catalog.ELASTIC_CONSTANTS}
+EOS = Tagged({name: _param_fields(params) for name, (_, params) in catalog.EOS_MODELS.items()},
+             "eos type", {},
+             {"mie_gruneisen": "Mie-Grueneisen, with the Hugoniot of a linear shock-particle "
+                               "velocity relation U_s = c0 + s u_p",
+              "linear": "linear in the density: p = rho0 c0^2 (rho/rho0 - 1)"})
+OPTIONAL_BLOCKS = {
+    "eos": Field(EOS, OMIT, doc="equation of state for the pressure (required for fluid); "
+                                "without it the pressure is hypoelastic from K"),
+    "bulk_viscosity": Field(mapping(_param_fields(catalog.BULK_VISCOSITY)), OMIT,
+                            doc="artificial bulk viscosity for shocks"),
+}
+EPS_FAIL = Field(number(*PARAM_CHECKS["eps_fail"]), OMIT, "1",
+                 "equivalent plastic strain at failure (0: never)")
 
 
 def read_material(raw, path, problems):
@@ -39,8 +62,7 @@ def read_material(raw, path, problems):
     if not isinstance(raw, dict):
         problems.add(path, "expected a mapping with a 'model' key")
         return INVALID
-    model_name = read_mapping({"model": raw.get("model")}, path,
-                              {"model": Field(choice(catalog.MODELS, "model"))}, problems)
+    model_name = read_mapping({"model": raw.get("model")}, path, {"model": MODEL}, problems)
     if model_name is INVALID or model_name["model"] is INVALID:
         return INVALID
     model = catalog.MODELS[model_name["model"]]
@@ -52,35 +74,38 @@ def read_material(raw, path, problems):
 
 def material_fields(model):
     """The field table of a material of ``model`` (a catalog.Model)."""
-    fields = {"model": Field(choice(catalog.MODELS, "model"))}
-    for name, param in model.params.items():
-        default = _default(param.default)
-        fields[name] = Field(number(*PARAM_CHECKS.get(name, [])), default)
+    fields = {"model": MODEL, **_param_fields(model.params)}
     if model.elastic:
-        for name in catalog.ELASTIC_CONSTANTS:
-            fields[name] = Field(number(*PARAM_CHECKS[name]), OMIT)
+        fields.update(ELASTIC_FIELDS)
     if model.name != "rigid":
-        fields["eos"] = Field(read_eos, OMIT)
-        fields["bulk_viscosity"] = Field(mapping(_param_fields(catalog.BULK_VISCOSITY)), OMIT)
+        fields.update(OPTIONAL_BLOCKS)
     if model.plastic:
-        fields["eps_fail"] = Field(number(*PARAM_CHECKS["eps_fail"]), OMIT)
+        fields["eps_fail"] = EPS_FAIL
     return fields
 
 
-def read_eos(raw, path, problems):
-    variants = {name: _param_fields(params)
-                for name, (_, params) in catalog.EOS_MODELS.items()}
-    return read_tagged(raw, path, variants, problems, "eos type")
+class MaterialReader:
+    """One material: its ``model`` picks the field table (``material_fields``); the same
+    interface as ``Tagged`` for the reference."""
+    tag = "model"
+    variants = catalog.MODELS
+    common = {}
+
+    def __call__(self, raw, path, problems):
+        return read_material(raw, path, problems)
+
+    def fields_of(self, kind):
+        return material_fields(catalog.MODELS[kind])
+
+    def variant_doc(self, kind):
+        return catalog.MODELS[kind].doc
+
+    def kind(self):
+        return "mapping with `model`"
 
 
-def _default(default):
-    """A catalog default as a Field default (catalog None means required)."""
-    return REQUIRED if default is None else float(default)
-
-
-def _param_fields(params):
-    return {name: Field(number(*PARAM_CHECKS.get(name, [])),
-                        _default(p.default)) for name, p in params.items()}
+MATERIALS = NamedItems(MaterialReader(), "material", "expected a mapping of material name: "
+                       "{model: ..., ...} with at least one material")
 
 
 def check_material(material, model, path, problems):

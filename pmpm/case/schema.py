@@ -1,55 +1,84 @@
-"""The case schema: the top-level sections, their keys and defaults, and the checks that
-relate one section to another. ``validate_case`` runs the whole pipeline on a raw tree.
+"""The case schema: the top-level sections, their keys, units, defaults and documentation,
+and the checks that relate one section to another. ``validate_case`` runs the whole
+pipeline on a raw tree.
 """
 import copy
+import dataclasses
 import math
 
-from .contact import check_contact, read_contact
-from .windows import check_window_bodies, check_windows, read_window
-from .bodies import check_bodies_in_grid, check_mesh_files, check_min_below_max, read_body
+from .contact import CONTACT, check_contact
+from .windows import WINDOW, check_window_bodies, check_windows
+from .bodies import BODY, check_bodies_in_grid, check_mesh_files, check_min_below_max
 from .errors import CaseError, Problems, join, unknown_name
-from .fields import (INVALID, Field, at_least, at_most, boolean, choice, defaults_of,
-                     greater, integer, list_of, mapping, number, number_list,
-                     read_mapping, read_tagged, text, valid, vector)
-from .materials import read_materials
+from .fields import (INVALID, Checked, Custom, Field, Marker, Tagged, at_least, at_most,
+                     boolean, choice, defaults_of, greater, integer, list_of, mapping,
+                     number, number_list, read_mapping, text, valid, vector)
+from .materials import MATERIALS
 from .overrides import apply_overrides
 from .params import resolve_params, substitute
 
 FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
-BOUNDARY = {face: Field(choice(("fixed", "slip", "free", "symmetry"), "boundary condition"),
-                        "free") for face in FACES}
-GRID = {"min": Field(vector()), "max": Field(vector()), "cell": Field(number(greater(0))),
-        "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY)),
-        "windows": Field(list_of(read_window, 0, "window"), [])}
-TIME = {"end": Field(number(greater(0))), "cfl": Field(number(greater(0), at_most(1)), 0.5),
-        "dt_max": Field(number(greater(0)), None),
-        "scheme": Field(choice(("usf", "musl"), "update scheme"), "usf")}
-OUTPUT = {"frames": Field(integer(at_least(1)), 10),
-          "history_every": Field(integer(at_least(1)), 10),
-          "checkpoint_every": Field(integer(at_least(0)), 0),
-          "progress": Field(boolean(), True),
-          "times": Field(number_list(0), [])}
-DECOMPOSITION = {"axis": Field(choice(("auto", "x", "y", "z"), "axis"), "auto"),
-                 "rebalance_threshold": Field(number(greater(0)), 0.2),
-                 "check_every": Field(integer(at_least(1)), 50)}
-TIME_FUNCTIONS = {"constant": {}, "ramp": {"t_rise": Field(number(greater(0)))},
-                  "table": {"t": Field(number_list(2)), "f": Field(number_list(2))}}
-REGION = {"min": Field(vector()), "max": Field(vector())}
+BOUNDARY_CONDITIONS = ("fixed", "slip", "free", "symmetry")
+BOUNDARY = {face: Field(choice(BOUNDARY_CONDITIONS, "boundary condition"), "free",
+                        doc=f"the face at grid.{'min' if face[1] == '-' else 'max'} "
+                            f"along {face[0]}")
+            for face in FACES}
+TIME = {
+    "end": Field(number(greater(0)), unit="ms", doc="simulated end time"),
+    "cfl": Field(number(greater(0), at_most(1)), 0.5, "1",
+                 "Courant number: the fraction of the stable time step (seed 001 Eq. 35) "
+                 "that is taken"),
+    "dt_max": Field(number(greater(0)), None, "ms",
+                    "upper limit on the time step (none: no limit)"),
+    "scheme": Field(choice(("usf", "musl"), "update scheme"), "usf",
+                    doc="update order: `usf` updates the stresses first, from the nodal "
+                        "velocities of the start of the step (seed 000 Sec. 2, seed 001 "
+                        "Sec. 4); `musl` (modified update stress last) takes the nodal "
+                        "forces from the start-of-step stresses, then updates the stresses "
+                        "from the new particle velocities mapped back to the grid: one more "
+                        "particle-to-grid pass, and it resists the cell-crossing instability "
+                        "of soft bodies with free surfaces"),
+}
+OUTPUT = {
+    "frames": Field(integer(at_least(1)), 10,
+                    doc="particle frames written after the initial one, equally spaced in "
+                        "time; the initial and the final state are always frames"),
+    "history_every": Field(integer(at_least(1)), 10, "steps",
+                           "steps between rows of history.csv"),
+    "checkpoint_every": Field(integer(at_least(0)), 0, "steps",
+                              "steps between checkpoints; 0: at every frame (every run "
+                              "also ends with a checkpoint)"),
+    "progress": Field(boolean(), True, doc="print progress lines (rank 0)"),
+    "times": Field(number_list(0), [], "ms",
+                   "extra frame times, each in (0, time.end], written besides the equally "
+                   "spaced ones"),
+}
+DECOMPOSITION = {
+    "axis": Field(choice(("auto", "x", "y", "z"), "axis"), "auto",
+                  doc="axis the grid is cut into slabs of coarse cells along (`auto`: the "
+                      "one that balances the particles best)"),
+    "rebalance_threshold": Field(number(greater(0)), 0.2, "1",
+                                 "the slabs are moved when max/mean particles per rank - 1 "
+                                 "exceeds it"),
+    "check_every": Field(integer(at_least(1)), 50, "steps", "steps between balance checks"),
+}
+TIME_FUNCTIONS = {
+    "constant": {},
+    "ramp": {"t_rise": Field(number(greater(0)), unit="ms",
+                             doc="rises linearly from 0 at t = 0 to 1 at t_rise, then "
+                                 "stays 1")},
+    "table": {"t": Field(number_list(2), unit="ms",
+                         doc="times, strictly increasing, as many as f"),
+              "f": Field(number_list(2), unit="1",
+                         doc="factors at the times t: piecewise linear between them, held "
+                             "at the end values outside them")},
+}
+REGION = {"min": Field(vector(), unit="mm", doc="lower corner of the box"),
+          "max": Field(vector(), unit="mm", doc="upper corner of the box (min < max)")}
 
 
-def read_load(raw, path, problems):
-    fields = {"name": Field(text()), "body": Field(text()),
-              "type": Field(choice(("traction", "force"), "load type")),
-              "region": Field(mapping(REGION)), "value": Field(vector()),
-              "time_function": Field(read_time_function, {"type": "constant"})}
-    load = read_mapping(raw, path, fields, problems)
-    if valid(load, "region"):
-        check_min_below_max(load["region"], join(path, "region"), problems)
-    return load
-
-
-def read_time_function(raw, path, problems):
-    function = read_tagged(raw, path, TIME_FUNCTIONS, problems, "time function")
+def _check_table(function, path, problems):
+    """A table's t and f have the same length and t increases strictly."""
     if not valid(function, "t", "f"):
         return function
     t, f = function["t"], function["f"]
@@ -60,8 +89,37 @@ def read_time_function(raw, path, problems):
     return function
 
 
-def read_grid(raw, path, problems):
-    grid = read_mapping(raw, path, GRID, problems)
+def _check_region(load, path, problems):
+    if valid(load, "region"):
+        check_min_below_max(load["region"], join(path, "region"), problems)
+    return load
+
+
+TIME_FUNCTION_DOCS = {
+    "constant": "1 at all times",
+    "ramp": "linear from 0 at t = 0 to 1 at t_rise, then 1",
+    "table": "piecewise linear through the points (t, f), held at the end values outside them",
+}
+read_time_function = Checked(Tagged(TIME_FUNCTIONS, "time function", {}, TIME_FUNCTION_DOCS),
+                             _check_table)
+LOAD = {
+    "name": Field(text(), doc="unique among loads"),
+    "body": Field(text(), doc="the loaded body's name"),
+    "type": Field(choice(("traction", "force"), "load type"),
+                  doc="`traction`: value is a stress, and each selected particle gets "
+                      "value * vol^(2/3) (its face area); `force`: value is a total force, "
+                      "shared equally among the selected particles"),
+    "region": Field(mapping(REGION), unit="mm",
+                    doc="the particles of body inside this box at t = 0 are loaded (one "
+                        "that selects no particle is an error when the run starts)"),
+    "value": Field(vector(), unit="MPa or N", doc="the traction or the total force"),
+    "time_function": Field(read_time_function, {"type": "constant"},
+                           doc="scales value in time: `constant` (1), `ramp` or `table`"),
+}
+read_load = Checked(mapping(LOAD), _check_region)
+
+
+def _check_grid(grid, path, problems):
     if check_min_below_max(grid, path, problems) and valid(grid, "cell"):
         grid["max"] = rounded_max(grid["min"], grid["max"], grid["cell"])
         check_windows(grid, path, problems)
@@ -75,25 +133,43 @@ def rounded_max(low, high, cell):
     return [float(f"{a + n * cell:.12g}") for a, n in zip(low, cells)]
 
 
-def _read_materials(raw, path, problems):
-    return read_materials(raw, problems)
+GRID = {
+    "min": Field(vector(), unit="mm", doc="lower corner of the grid box"),
+    "max": Field(vector(), unit="mm",
+                 doc="upper corner of the grid box; rounded up so that max - min is a "
+                     "whole number of cells (the rounded value is stored)"),
+    "cell": Field(number(greater(0)), unit="mm", doc="cell size h (cubic cells)"),
+    "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY),
+                      doc="the condition on each face of the grid box"),
+    "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],
+                     doc="refined sub-grids tied to the coarse grid (seed 000 Secs. 3-4)"),
+}
+read_grid = Checked(mapping(GRID), _check_grid)
+CASE_FILE_NAME = Marker("the case file's name without .yaml")
+TOP_LEVEL = {
+    "title": Field(text(), CASE_FILE_NAME, doc="the case's name, shown in outputs"),
+    "params": Field(Custom(lambda value, path, problems: value, "mapping name: number"), {},
+                    doc="parameters for ${...} expressions"),
+    "grid": Field(read_grid, doc="the background grid"),
+    "gravity": Field(vector(), [0.0, 0.0, 0.0], "mm/ms^2",
+                     "body acceleration (Earth: 9.81e-3 mm/ms^2)"),
+    "materials": Field(MATERIALS, doc="the materials by name (at least one)"),
+    "bodies": Field(list_of(BODY, 1, "body"), doc="the bodies filled with particles"),
+    "loads": Field(list_of(read_load, 0, "load"), [],
+                   doc="tractions and forces on the particles of a body"),
+    "time": Field(mapping(TIME), doc="end time and time-step control"),
+    "output": Field(mapping(OUTPUT), defaults_of(OUTPUT),
+                    doc="particle frames, history rows, checkpoints"),
+    "decomposition": Field(mapping(DECOMPOSITION), defaults_of(DECOMPOSITION),
+                           doc="how the grid and the particles are shared among MPI ranks"),
+    "contact": Field(mapping(CONTACT), defaults_of(CONTACT),
+                     doc="multi-body grid contact (seed 001 Secs. 2-4)"),
+}
 
 
 def top_level_fields(default_title):
-    return {
-        "title": Field(text(), default_title),
-        "params": Field(lambda value, path, problems: value, {}),
-        "grid": Field(read_grid),
-        "gravity": Field(vector(), [0.0, 0.0, 0.0]),
-        "materials": Field(_read_materials),
-        "bodies": Field(list_of(read_body, 1, "body")),
-        "loads": Field(list_of(read_load, 0, "load"), []),
-        "time": Field(mapping(TIME)),
-        "output": Field(mapping(OUTPUT), defaults_of(OUTPUT)),
-        "decomposition": Field(mapping(DECOMPOSITION), defaults_of(DECOMPOSITION)),
-        "contact": Field(read_contact, {"method": 0, "friction": 0.0, "skip_separating": False,
-                                        "normal": "average", "pairs": []}),
-    }
+    """The top-level table with the title's default: the case file's name."""
+    return {**TOP_LEVEL, "title": dataclasses.replace(TOP_LEVEL["title"], default=default_title)}
 
 
 def validate_case(raw, case_dir=".", default_title="case", overrides=(),

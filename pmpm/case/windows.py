@@ -15,15 +15,21 @@ nor touch (a tied interface needs coarse cells on its far side). Particles insid
 window are filled at the window's spacing, ``cell / ratio / particles_per_cell``.
 """
 from .errors import join, unknown_name
-from .fields import INVALID, OMIT, Field, at_least, integer, read_mapping, text, valid, vector
+from .fields import INVALID, OMIT, Field, at_least, integer, text, valid, vector
 
-WINDOW = {"min": Field(vector()), "max": Field(vector()),
-          "ratio": Field(integer(at_least(1))), "follow": Field(text(), OMIT)}
+WINDOW = {
+    "min": Field(vector(), unit="mm",
+                 doc="lower corner, on coarse grid lines (grid.min + whole multiples of "
+                     "grid.cell), inside the grid box"),
+    "max": Field(vector(), unit="mm", doc="upper corner, on coarse grid lines"),
+    "ratio": Field(integer(at_least(1)), unit="1",
+                   doc="R: the window's cell is grid.cell / R (1: the coarse grid itself, "
+                       "accepted so that a parameter can switch refinement off)"),
+    "follow": Field(text(), OMIT,
+                    doc="a body's name: the window moves with that body's mass centroid, "
+                        "in whole coarse cells, staying inside the grid box (Sec. 3.3)"),
+}
 ON_LINE_TOL = 1e-6          # in cells
-
-
-def read_window(raw, path, problems):
-    return read_mapping(raw, path, WINDOW, problems)
 
 
 def check_windows(grid, path, problems):
