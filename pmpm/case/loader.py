@@ -1,6 +1,8 @@
-"""``load_case``: a case file, plus ``--set`` overrides, to a validated case dict."""
+"""``load_case``: a case file, plus ``--set`` overrides, to a validated case dict;
+``load_config``: the same as frozen records."""
 import os
 
+from .config import CaseConfig
 from .errors import Problems
 from .schema import validate_case
 from .yamlio import read_yaml_file
@@ -38,3 +40,9 @@ def load_case(path, overrides=(), check_geometry=True):
     case_dir = os.path.dirname(os.path.abspath(path))
     title = os.path.splitext(os.path.basename(path))[0]
     return validate_case(raw, case_dir, title, overrides, check_geometry, problems)
+
+
+def load_config(path, overrides=(), check_geometry=True):
+    """``CaseConfig`` of the case file at ``path`` (the arguments and errors of
+    ``load_case``)."""
+    return CaseConfig.from_case(load_case(path, overrides, check_geometry))

@@ -1,0 +1,269 @@
+"""The validated case as frozen, typed records, built once: ``CaseConfig.from_case``.
+
+The defaults live only in the schema's ``Field`` tables: a record takes every value from
+the validated case dict, where the schema filled them, and states none of its own. Each
+record mirrors one schema table (``mirrors`` checks that its attributes are that table's
+keys, in order) and its docstring lists them with type, unit and meaning taken from the
+table. A key the schema leaves out when it is not given (``OMIT``) is ``None``. Lists
+become tuples and mappings ``ReadOnlyDict``s, so nothing in a record can be changed.
+"""
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from .bodies import BODY
+from .contact import CONTACT, PAIR
+from .fields import unwrap
+from .schema import (DECOMPOSITION, FACES, GRID, LOAD, OUTPUT, REGION, TIME, TOP_LEVEL,
+                     read_time_function)
+from .windows import WINDOW
+
+__all__ = ["BodyConfig", "CaseConfig", "ContactConfig", "DecompositionConfig", "FACES",
+           "GridConfig", "LoadConfig", "OutputConfig", "PairConfig", "ReadOnlyDict",
+           "RegionConfig", "TimeConfig", "TimeFunctionConfig", "WindowConfig", "frozen",
+           "thawed"]
+
+
+class ReadOnlyDict(Mapping):
+    """A mapping that cannot be changed (unlike ``MappingProxyType``, it pickles)."""
+
+    def __init__(self, items):
+        self._items = dict(items)
+
+    def __getitem__(self, key):
+        return self._items[key]
+
+    def __iter__(self):
+        return iter(self._items)
+
+    def __len__(self):
+        return len(self._items)
+
+    def __repr__(self):
+        return f"ReadOnlyDict({self._items!r})"
+
+
+def frozen(value):
+    """``value`` with every list turned into a tuple and every dict into a ReadOnlyDict."""
+    if isinstance(value, dict):
+        return ReadOnlyDict((key, frozen(item)) for key, item in value.items())
+    if isinstance(value, (list, tuple)):
+        return tuple(frozen(item) for item in value)
+    return value
+
+
+def thawed(value):
+    """The plain dicts and lists of a ``frozen`` value (for JSON, YAML, ``validate_case``)."""
+    if isinstance(value, Mapping):
+        return {key: thawed(item) for key, item in value.items()}
+    if isinstance(value, tuple):
+        return [thawed(item) for item in value]
+    return value
+
+
+def mirrors(fields, **extra):
+    """Class decorator for a frozen dataclass whose attributes are the keys of the schema
+    table ``fields`` (then the ``extra`` ones, name=doc): checks the names and writes the
+    Attributes section of the docstring from the table."""
+    def decorate(cls):
+        names = [f.name for f in dataclasses.fields(cls)]
+        if names != list(fields) + list(extra):
+            raise TypeError(f"{cls.__name__}: attributes {names} are not the schema keys "
+                            f"{list(fields) + list(extra)}")
+        lines = [_attribute_doc(key, field) for key, field in fields.items()]
+        lines += [f"{key}\n    {doc}" for key, doc in extra.items()]
+        cls.__doc__ = f"{cls.__doc__}\n\nAttributes\n----------\n" + "\n".join(lines)
+        return cls
+    return decorate
+
+
+def _attribute_doc(key, field):
+    unit = f" [{field.unit}]" if field.unit else ""
+    return f"{key} : {field.read.kind()}{unit}\n    {field.doc}"
+
+
+def record(cls, section, **built):
+    """``cls`` from a validated section: each attribute is the section's key of that name
+    (None where the key was left out), frozen; ``built`` gives the attributes built
+    otherwise (nested records)."""
+    values = {f.name: frozen(section.get(f.name)) for f in dataclasses.fields(cls)
+              if f.name not in built}
+    return cls(**values, **built)
+
+
+def union_of(tagged):
+    """One table with the keys of every type of a ``Tagged`` reader."""
+    tagged = unwrap(tagged)
+    table = {}
+    for kind in tagged.variants:
+        table.update(tagged.fields_of(kind))
+    return table
+
+
+@mirrors(TIME)
+@dataclass(frozen=True)
+class TimeConfig:
+    """End time and time-step control (``time:``); ``dt_max`` None: no limit."""
+    end: float
+    cfl: float
+    dt_max: float | None
+    scheme: str
+
+
+@mirrors(OUTPUT)
+@dataclass(frozen=True)
+class OutputConfig:
+    """Particle frames, history rows, checkpoints (``output:``)."""
+    frames: int
+    history_every: int
+    checkpoint_every: int
+    progress: bool
+    times: tuple
+
+
+@mirrors(DECOMPOSITION)
+@dataclass(frozen=True)
+class DecompositionConfig:
+    """How the grid and the particles are shared among MPI ranks (``decomposition:``)."""
+    axis: str
+    rebalance_threshold: float
+    check_every: int
+
+
+@mirrors(WINDOW)
+@dataclass(frozen=True)
+class WindowConfig:
+    """A refined window (``grid.windows[i]``); ``follow`` None: it does not move."""
+    min: tuple
+    max: tuple
+    ratio: int
+    follow: str | None
+
+
+@mirrors(GRID)
+@dataclass(frozen=True)
+class GridConfig:
+    """The background grid (``grid:``). ``boundary`` maps each face of ``FACES`` (x-, x+,
+    y-, y+, z-, z+) to its condition name: fixed, slip, free or symmetry."""
+    min: tuple
+    max: tuple
+    cell: float
+    boundary: ReadOnlyDict
+    windows: tuple
+
+    @classmethod
+    def from_case(cls, grid):
+        return record(cls, grid, windows=tuple(record(WindowConfig, w) for w in grid["windows"]))
+
+
+@mirrors(PAIR)
+@dataclass(frozen=True)
+class PairConfig:
+    """The contact rules of one pair of bodies (``contact.pairs[i]``), resolved: a key the
+    pair leaves out is the contact section's. ``separation`` None: no check."""
+    bodies: tuple
+    friction: float
+    normal: str
+    separation: float | None
+
+    @classmethod
+    def from_case(cls, pair, contact):
+        inherited = {key: contact.get(key) for key in ("friction", "normal", "separation")}
+        return record(cls, {**inherited, **pair})
+
+
+@mirrors(CONTACT)
+@dataclass(frozen=True)
+class ContactConfig:
+    """Multi-body grid contact (``contact:``). ``method`` is 0 (none), 1 or 2;
+    ``separation`` None: no separation check (left out or ``none``)."""
+    method: int
+    friction: float
+    skip_separating: bool
+    normal: str
+    separation: float | None
+    pairs: tuple
+
+    @classmethod
+    def from_case(cls, contact):
+        pairs = tuple(PairConfig.from_case(pair, contact) for pair in contact["pairs"])
+        return record(cls, contact, pairs=pairs)
+
+
+@mirrors(REGION)
+@dataclass(frozen=True)
+class RegionConfig:
+    """A box (``loads[i].region``)."""
+    min: tuple
+    max: tuple
+
+
+@mirrors(union_of(read_time_function))
+@dataclass(frozen=True)
+class TimeFunctionConfig:
+    """The factor a load is scaled with in time (``loads[i].time_function``); the keys of
+    the other types are None."""
+    type: str
+    t_rise: float | None
+    t: tuple | None
+    f: tuple | None
+
+
+@mirrors(LOAD)
+@dataclass(frozen=True)
+class LoadConfig:
+    """A traction or force on the particles of one body inside a box (``loads[i]``)."""
+    name: str
+    body: str
+    type: str
+    region: RegionConfig
+    value: tuple
+    time_function: TimeFunctionConfig
+
+    @classmethod
+    def from_case(cls, load):
+        return record(cls, load, region=record(RegionConfig, load["region"]),
+                      time_function=record(TimeFunctionConfig, load["time_function"]))
+
+
+@mirrors(BODY.fields)
+@dataclass(frozen=True)
+class BodyConfig:
+    """A body filled with particles (``bodies[i]``); ``geometry`` is the validated
+    geometry mapping, read-only (its keys depend on its type: see the reference)."""
+    name: str
+    material: str
+    geometry: ReadOnlyDict
+    particles_per_cell: int
+    velocity: tuple
+
+
+@mirrors(TOP_LEVEL, case="the whole validated case, read-only (``thawed(config.case)`` is "
+                         "the plain dict, for ``fill_body`` and for output files)")
+@dataclass(frozen=True)
+class CaseConfig:
+    """The validated case as records. ``materials`` maps each material name to its
+    validated mapping, read-only (``pmpm.materials.catalog.pack`` takes it as it is)."""
+    title: str
+    params: ReadOnlyDict
+    grid: GridConfig
+    gravity: tuple
+    materials: ReadOnlyDict
+    bodies: tuple
+    loads: tuple
+    time: TimeConfig
+    output: OutputConfig
+    decomposition: DecompositionConfig
+    contact: ContactConfig
+    case: ReadOnlyDict
+
+    @classmethod
+    def from_case(cls, case):
+        """The records of a validated case dict (``load_case``, ``validate_case``)."""
+        return record(
+            cls, case, grid=GridConfig.from_case(case["grid"]),
+            bodies=tuple(record(BodyConfig, body) for body in case["bodies"]),
+            loads=tuple(LoadConfig.from_case(load) for load in case["loads"]),
+            time=record(TimeConfig, case["time"]), output=record(OutputConfig, case["output"]),
+            decomposition=record(DecompositionConfig, case["decomposition"]),
+            contact=ContactConfig.from_case(case["contact"]), case=frozen(case))

@@ -1,0 +1,130 @@
+"""CaseConfig: the validated case as frozen records whose defaults are the schema's."""
+import dataclasses
+import pathlib
+import pickle
+
+import pytest
+
+from pmpm.case import CaseConfig, fill_body, load_case, load_config, validate_case
+from pmpm.case.bodies import BODY
+from pmpm.case.config import ReadOnlyDict, mirrors, thawed
+from pmpm.case.contact import CONTACT
+from pmpm.case.fields import OMIT, REQUIRED
+from pmpm.case.schema import BOUNDARY, DECOMPOSITION, OUTPUT, TIME
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+CASE_FILES = sorted(ROOT.glob("runs/*.yaml")) + sorted(ROOT.glob("tests/cases/*.yaml"))
+
+PLAIN = {
+    "grid": {"min": [0, 0, 0], "max": [10, 10, 10], "cell": 1},
+    "materials": {"steel": {"model": "elastic", "density": 7.8e-3, "E": 2e5, "nu": 0.3}},
+    "bodies": [{"name": name, "material": "steel",
+                "geometry": {"type": "box", "min": [1, 1, z], "max": [9, 9, z + 2]}}
+               for name, z in (("a", 1), ("b", 4), ("c", 7))],
+    "time": {"end": 0.1},
+}
+
+
+def config_of(**sections):
+    return CaseConfig.from_case(validate_case({**PLAIN, **sections}, check_geometry=False))
+
+
+@pytest.mark.parametrize("path", CASE_FILES, ids=lambda p: p.name)
+def test_every_case_file_builds_a_config_that_matches_its_case(path):
+    case = load_case(path, check_geometry=False)
+    config = CaseConfig.from_case(case)
+    assert thawed(config.case) == case
+    assert config.time.end == case["time"]["end"] and config.time.cfl == case["time"]["cfl"]
+    assert config.output.frames == case["output"]["frames"]
+    assert config.contact.method == case["contact"]["method"]
+    assert [b.name for b in config.bodies] == [b["name"] for b in case["bodies"]]
+    assert config.grid.max == tuple(case["grid"]["max"])
+    assert set(config.grid.boundary) == set(BOUNDARY)
+    assert pickle.loads(pickle.dumps(config)) == config
+
+
+@pytest.mark.parametrize("section, table", [("time", TIME), ("output", OUTPUT),
+                                            ("decomposition", DECOMPOSITION),
+                                            ("contact", CONTACT)])
+def test_left_out_keys_take_the_schema_defaults(section, table):
+    record = getattr(config_of(), section)
+    for key, field in table.items():
+        if field.default is OMIT:
+            assert getattr(record, key) is None, key
+        elif field.default is not REQUIRED:
+            assert thawed(getattr(record, key)) == field.default, key
+
+
+def test_defaults_of_grid_and_bodies_come_from_the_schema():
+    config = config_of()
+    assert config.time.cfl == TIME["cfl"].default
+    assert config.bodies[0].particles_per_cell == BODY.fields["particles_per_cell"].default
+    assert dict(config.grid.boundary) == {face: f.default for face, f in BOUNDARY.items()}
+    assert config.contact.separation is None and config.contact.pairs == ()
+    assert config.loads == () and config.grid.windows == ()
+
+
+def test_records_are_frozen():
+    config = config_of()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        config.time.cfl = 0.9
+    with pytest.raises(TypeError):
+        config.grid.boundary["z-"] = "fixed"
+    with pytest.raises(TypeError):
+        config.materials["steel"]["E"] = 1.0
+    assert isinstance(config.output.times, tuple) and isinstance(config.gravity, tuple)
+    assert isinstance(config.bodies[0].geometry, ReadOnlyDict)
+
+
+def test_steel_ball_case_values():
+    config = load_config(ROOT / "runs" / "steel_ball_plate.yaml", check_geometry=False)
+    assert config.contact.method == 2 and config.contact.separation == 0.9
+    pair = config.contact.pairs[0]
+    assert pair.bodies == ("ball", "plate") and pair.normal == "ball"
+    assert config.grid.boundary["x-"] == "symmetry" and config.grid.boundary["z-"] == "free"
+    assert config.materials["steel"]["model"] == "j2_power"
+
+
+def test_pairs_take_the_contact_rules_they_leave_out():
+    contact = config_of(contact={
+        "method": 1, "friction": 0.3, "normal": "stiffer", "separation": 0.9,
+        "pairs": [{"bodies": ["a", "b"]},
+                  {"bodies": ["a", "c"], "friction": 0.1, "normal": "c", "separation": "none"}],
+    }).contact
+    assert contact.pairs[0] == dataclasses.replace(contact.pairs[0], bodies=("a", "b"),
+                                                   friction=0.3, normal="stiffer",
+                                                   separation=0.9)
+    assert (contact.pairs[1].friction, contact.pairs[1].normal) == (0.1, "c")
+    assert contact.pairs[1].separation is None
+    assert config_of(contact={"method": "none", "separation": "none"}).contact.separation is None
+
+
+def test_loads_windows_and_time_functions():
+    config = config_of(
+        loads=[{"name": "push", "body": "a", "type": "force", "value": [0, 0, 1],
+                "region": {"min": [0, 0, 0], "max": [10, 10, 3]},
+                "time_function": {"type": "table", "t": [0, 1], "f": [0, 1]}},
+               {"name": "pull", "body": "b", "type": "traction", "value": [0, 0, -1],
+                "region": {"min": [0, 0, 4], "max": [10, 10, 6]}}],
+        grid={**PLAIN["grid"], "windows": [{"min": [0, 0, 0], "max": [5, 5, 5], "ratio": 2,
+                                            "follow": "a"}]})
+    push, pull = config.loads
+    assert push.time_function.t == (0.0, 1.0) and push.time_function.t_rise is None
+    assert pull.time_function.type == "constant" and pull.region.max == (10.0, 10.0, 6.0)
+    window = config.grid.windows[0]
+    assert (window.ratio, window.follow, window.max) == (2, "a", (5.0, 5.0, 5.0))
+
+
+def test_fill_body_takes_the_read_only_case():
+    config = config_of()
+    positions, _ = fill_body(config.case["bodies"][0], config.case["grid"])
+    assert len(positions) == 8 * 8 * 2 * 8
+
+
+def test_a_record_whose_attributes_drift_from_the_schema_is_refused():
+    with pytest.raises(TypeError, match="schema keys"):
+        @mirrors(TIME)
+        @dataclasses.dataclass(frozen=True)
+        class Drifted:
+            end: float
+            cfl: float
