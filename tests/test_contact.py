@@ -9,6 +9,7 @@ import yaml
 
 from pmpm.case import CaseError, load_case
 from pmpm.kernels import contact as kc
+from pmpm.kernels.records import ContactSlots, NodeBlock, PairRules
 from pmpm.post import read_frame
 from runhelp import CASES, run_pmpm
 
@@ -16,6 +17,24 @@ SLIDING = os.path.join(CASES, "sliding_block.yaml")
 BLOCKS = os.path.join(CASES, "two_blocks.yaml")
 BLOCK_MASS = 1000.0 * 0.02 ** 3                 # each cube of two_blocks.yaml (kg)
 NO_CHECK = np.full((2, 2), np.inf)              # no separation check (seed 001 Sec. 2.2)
+
+
+def contact_start(cnodal, slots, gvel, master, separation, rigid, method, m_tiny, shape, lo,
+                  strides, n_cells, bc, cvel, cnorm):
+    """kc.contact_start with its records built from plain arrays."""
+    record = ContactSlots(cnodal, slots, cvel, cnorm, np.zeros((0, 1, 3)), np.zeros((0, 1, 6)))
+    rules = PairRules(master, np.zeros(master.shape), separation)
+    kc.contact_start(record, gvel, rules, rigid, method, m_tiny,
+                     NodeBlock(shape, lo, strides, n_cells, bc))
+
+
+def contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, friction, separation, rigid,
+                skip, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew):
+    """kc.contact_end with its records built from plain arrays."""
+    record = ContactSlots(cnodal, slots, cvel, cnorm, cforce, cnew)
+    rules = PairRules(np.full(friction.shape, -1, np.int64), friction, separation)
+    kc.contact_end(record, gvel, gnew, rules, rigid, skip, dt, m_tiny,
+                   NodeBlock(shape, lo, strides, n_cells, bc))
 
 
 def history(out):
@@ -87,11 +106,11 @@ def test_stick_in_every_direction_gives_the_shared_field():
     slots = np.arange(n_slots)
     cvel, cnorm = np.empty((n_slots, nb, 3)), np.empty((n_slots, nb, 3))
     rigid = np.zeros(nb, np.bool_)
-    kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), NO_CHECK, rigid, 1, 0.0,
+    contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), NO_CHECK, rigid, 1, 0.0,
                      *geometry, cvel, cnorm)
     assert np.allclose(cnorm[:, 0], -cnorm[:, 1])                 # collinear (Eq. 10)
     cnew = np.empty((n_slots, nb, 6))
-    kc.contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, np.full((nb, nb), 1e30),
+    contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, np.full((nb, nb), 1e30),
                    NO_CHECK, rigid, False, dt, 0.0, *geometry, cnew)
     assert np.allclose(cnew[:, 0, :3], gnew[:, :3]) and np.allclose(cnew[:, 1, :3], gnew[:, :3])
     momentum_change = (cnodal[:, :, :1] * cnew[:, :, 3:]).sum(axis=1)
@@ -118,9 +137,9 @@ def test_skip_separating_leaves_bodies_that_separated_at_the_start_of_the_step()
 
     def end_velocities(start_vx, method):
         cnodal[0, 0, 1], cnodal[0, 1, 1] = start_vx, -start_vx
-        kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), NO_CHECK, rigid, method,
+        contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), NO_CHECK, rigid, method,
                          0.0, *geometry, cvel, cnorm)
-        kc.contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, np.zeros((nb, nb)),
+        contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, np.zeros((nb, nb)),
                        NO_CHECK, rigid, skip, dt, 0.0, *geometry, cnew)
         return cnew[0, 0, 0], cnew[0, 1, 0]
 
@@ -156,9 +175,9 @@ def test_separation_check_leaves_bodies_with_a_gap_between_them_uncorrected(meth
         cnodal[0, 0, 7] = -cnodal[0, 0, 0] * apart / 2      # mass-weighted offsets (cells)
         cnodal[0, 1, 7] = cnodal[0, 1, 0] * apart / 2
         separation = np.full((nb, nb), limit)
-        kc.contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), separation, rigid,
+        contact_start(cnodal, slots, gvel, np.full((nb, nb), -1), separation, rigid,
                          method, 0.0, *geometry, cvel, cnorm)
-        kc.contact_end(cnodal, cvel, cnorm, np.zeros((1, nb, 3)), slots, gvel, gnew,
+        contact_end(cnodal, cvel, cnorm, np.zeros((1, nb, 3)), slots, gvel, gnew,
                        np.zeros((nb, nb)), separation, rigid, False, dt, 0.0, *geometry, cnew)
         return cnew[0, 0, 0], cnew[0, 1, 0]
 

@@ -5,6 +5,9 @@ import pytest
 from pmpm.grid import LocalBlock, FIXED, SLIP
 from pmpm.comm.slabs import Slabs
 from pmpm.kernels import mpm
+from pmpm.kernels.records import (BodyMaterials, ExternalLoads, GridGeometry, NodeBlock,
+                                  PointState)
+from pmpm.materials.state import MaterialState
 from pmpm.kernels.shape import trilinear
 from pmpm.materials.catalog import pack
 from numba import njit
@@ -44,8 +47,9 @@ def test_particle_to_grid_conserves_mass_and_momentum():
     mass = rng.uniform(1, 2, n)
     b = block()
     nodal = np.zeros((b.n_nodes, mpm.NODAL_COMPONENTS))
-    mpm.particles_to_grid(x, v, mass, np.zeros(n, np.int32), np.zeros(1, np.bool_),
-                          np.zeros(3), 1.0, b.lo, b.strides, nodal, np.zeros(n, np.int32), 0)
+    points = PointState(x, v, mass, np.zeros(n, np.int32), np.zeros(n, np.int32))
+    mpm.particles_to_grid(points, np.zeros(1, np.bool_), GridGeometry(np.zeros(3), 1.0, b.lo,
+                          b.strides), nodal, 0)
     assert nodal[:, 0].sum() == pytest.approx(mass.sum(), rel=1e-13)
     assert nodal[:, 1:4].sum(axis=0) == pytest.approx(mass @ v, rel=1e-12, abs=1e-12)
 
@@ -57,7 +61,8 @@ def test_fixed_and_slip_faces_constrain_nodal_velocity():
     nodal[:, 1:4] = [1.0, 2.0, 3.0]
     bc = np.array([FIXED, 0, 0, SLIP, 0, 0], np.int64)      # x- fixed, y+ slip
     gvel = np.zeros((b.n_nodes, 3))
-    mpm.nodal_velocities(nodal, b.shape, b.lo, b.strides, np.full(3, 2, np.int64), bc, 0.0, gvel)
+    mpm.nodal_velocities(nodal, NodeBlock(b.shape, b.lo, b.strides, np.full(3, 2, np.int64), bc),
+                         0.0, gvel)
     planes = gvel.reshape(3, 3, 3, 3)
     assert np.all(planes[0] == 0.0)                            # x = 0 fixed
     assert np.all(planes[1:, 2, :, 1] == 0.0)                  # y = top: no normal velocity
@@ -78,13 +83,14 @@ def test_internal_forces_of_uniform_stress_cancel_inside():
     F = np.tile(np.eye(3).ravel(), (n, 1))
     zeros = [np.zeros(n) for _ in range(4)]                  # eps_p, e_int, temp, q
     force = np.zeros((b.n_nodes, 3))
-    mpm.stress_and_forces(
-        x, np.zeros((n, 3)), np.full(n, d ** 3), np.ones(n), stress, F, *zeros,
-        np.zeros(n, np.int32), np.full(n, -1, np.int32), np.zeros(n),
-        np.array([code]), row[None, :], np.zeros(1, np.bool_), 1e-6, 1.0, np.zeros(3),
-        np.zeros((1, 3)), np.zeros(3), 1.0, b.lo, b.strides, np.zeros((b.n_nodes, 3)), force,
-        False, np.full(1, -1, np.int64), np.zeros((0, 1, 3)), np.zeros((0, 1, 3)),
-        np.zeros(n, np.int32), 0)
+    points = PointState(x, np.zeros((n, 3)), np.full(n, d ** 3), np.zeros(n, np.int32),
+                        np.zeros(n, np.int32))
+    mat = MaterialState(stress, F, np.ones(n), *zeros)
+    bodies = BodyMaterials(np.array([code]), row[None, :], np.zeros(1, np.bool_))
+    loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(n, -1, np.int32), np.zeros(n))
+    mpm.stress_and_forces(points, mat, bodies, loads, 1e-6, 1.0,
+                          GridGeometry(np.zeros(3), 1.0, b.lo, b.strides),
+                          np.zeros((b.n_nodes, 3)), force, None, 0)
     assert np.all(stress == [100.0, 50.0, 20.0, 10.0, 5.0, 2.0])
     assert np.abs(force.sum(axis=0)).max() < 1e-10
     interior = force.reshape(5, 5, 5, 3)[1:-1, 1:-1, 1:-1]
@@ -107,7 +113,7 @@ def test_slab_blocks_share_planes_with_neighbours():
 def test_cached_loop_that_inlines_materials_is_dropped_when_they_change(tmp_path):
     from pmpm.kernels.cache import materials_digest, refresh_inlined_caches
     stale = tmp_path / "mpm.stress_and_forces-170.py311.nbi"
-    other = tmp_path / "mpm.particles_to_grid-20.py311.nbi"
+    other = tmp_path / "tied.find_ties-20.py311.nbi"
     stale.write_text("x")
     other.write_text("x")
     assert refresh_inlined_caches(str(tmp_path))            # no stamp yet: dropped

@@ -18,6 +18,7 @@ from pmpm.materials import catalog
 from pmpm.materials import layout as L
 from pmpm.materials.eos import bulk_viscosity, mie_gruneisen_pressure, mie_gruneisen_tangent
 from pmpm.materials.kernels import update_stress, wave_speed
+from pmpm.materials.state import MaterialState
 from pmpm.materials.plasticity import flow_stress, plastic_increment, plastic_multiplier
 from pmpm.materials.tensors import jaumann_rotate, spin, strain_rate
 
@@ -73,7 +74,7 @@ class Particle:
         return self.stress, self.F, self.rho, self.eps_p, self.e_int, self.temp, self.q
 
     def step(self, Lg, dt, h=1.0):
-        return update_stress(0, self.code, self.prm, dt, h, Lg, *self.columns())
+        return update_stress(0, self.code, self.prm, dt, h, Lg, MaterialState(*self.columns()))
 
     def run(self, Lg, dt, n, h=1.0):
         for _ in range(n):
@@ -580,7 +581,7 @@ def test_update_stress_is_one_function_without_heap_or_reference_counting():
     keeps the update cheap inside the fused particle loop (see kernels.py, Speed)."""
     fresh = njit(cache=False)(update_stress.py_func)         # cached code cannot be inspected
     p = Particle(material("elastic", COPPER))
-    fresh(0, p.code, p.prm, 1e-6, 1.0, diag(1.0, 0, 0), *p.columns())
+    fresh(0, p.code, p.prm, 1e-6, 1.0, diag(1.0, 0, 0), MaterialState(*p.columns()))
     ir = fresh.inspect_llvm(fresh.signatures[0])
     head = next(line for line in ir.splitlines()
                 if line.startswith("define") and "update_stress" in line

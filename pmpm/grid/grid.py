@@ -8,8 +8,7 @@ box) so that a shared plane is the same array on both neighbours. Refined window
 """
 import numpy as np
 
-FREE, SLIP, FIXED = 0, 1, 2
-BOUNDARY_CODES = {"free": FREE, "slip": SLIP, "fixed": FIXED, "symmetry": SLIP}
+from ..kernels.boundary import BOUNDARY_CODES, FIXED, FREE, SLIP  # noqa: F401 (re-exported)
 FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
 
 

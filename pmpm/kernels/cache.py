@@ -1,11 +1,11 @@
-"""Keep Numba's on-disk cache honest about inlined material code.
+"""Keep Numba's on-disk cache honest about inlined code.
 
-Numba keys a cached kernel on its own source file only. The particle loops
-``mpm.stress_and_forces`` and ``mpm.update_stresses`` inline the material update from
-``pmpm/materials``, so an edit there would leave the cached loops running the old
-material code. Before the
-kernels are loaded, :func:`refresh_inlined_caches` compares a hash of the material
-sources with the one the cache was built from and drops the stale cached loops.
+Numba keys a cached kernel on its own source file only. The loops of ``mpm`` and
+``contact`` inline the material update from ``pmpm/materials``, the shape functions
+(``shape.py``) and the boundary conditions (``boundary.py``), so an edit there would
+leave the cached loops running the old code. Before the kernels are loaded,
+:func:`refresh_inlined_caches` compares a hash of those sources with the one the cache
+was built from and drops the stale cached loops.
 """
 import glob
 import hashlib
@@ -13,12 +13,16 @@ import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 MATERIALS = os.path.join(os.path.dirname(HERE), "materials")
-INLINING = ("mpm.stress_and_forces", "mpm.update_stresses")
+INLINING = ("mpm.", "contact.")
+INLINED = (os.path.join(MATERIALS, "*.py"), os.path.join(HERE, "shape.py"),
+           os.path.join(HERE, "boundary.py"))
 
 
 def materials_digest():
+    """A hash of every source the cached loops inline."""
     digest = hashlib.sha1()
-    for path in sorted(glob.glob(os.path.join(MATERIALS, "*.py"))):
+    paths = sorted(path for pattern in INLINED for path in glob.glob(pattern))
+    for path in paths:
         with open(path, "rb") as handle:
             digest.update(handle.read())
     return digest.hexdigest()
@@ -38,7 +42,7 @@ def refresh_inlined_caches(cache_dir=None):
         pass
     removed = False
     for name in INLINING:
-        for path in glob.glob(os.path.join(cache_dir, f"{name}-*.nb[ic]")):
+        for path in glob.glob(os.path.join(cache_dir, f"{name}*-*.nb[ic]")):
             try:
                 os.remove(path)
                 removed = True

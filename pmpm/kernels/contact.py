@@ -15,28 +15,31 @@ separation check;
 ``cforce`` c = 3: internal + external force of the body alone (Eq. 31);
 ``cnew`` c = 6: velocity at the end of the step (Eq. 14) and acceleration (Eq. 34).
 
-Pair tables, shape (n_bodies, n_bodies): ``friction`` (Coulomb mu), ``master``
-(-1: average of the two normals, Eq. 10; else the body whose own normal both use) and
-``separation`` (cells; inf: no separation check).
+The per-slot arrays travel together as a ``ContactSlots`` record, the pair tables,
+shape (n_bodies, n_bodies), as a ``PairRules`` record: ``friction`` (Coulomb mu),
+``master`` (-1: average of the two normals, Eq. 10; else the body whose own normal both
+use) and ``separation`` (cells; inf: no separation check); see ``pmpm.kernels.records``.
 """
 import numpy as np
 from numba import njit
 
-FIXED, SLIP = 2, 1
+from .boundary import constrain, face_codes_of_node
+
 CNODAL, CVEL, CNEW = 10, 3, 6
 
 
 @njit(cache=True)
-def body_masks(x, body, origin, inv_h, lo, strides, mask, level, want):
-    """mask[n] |= 1 << body for the 8 nodes of the cell of every particle with
-    ``level[p] == want``."""
+def body_masks(pts, geo, mask, want):
+    """mask[n] |= 1 << body for the 8 nodes of the cell of every point of ``pts`` (a
+    PointState) with ``level[p] == want``; ``geo`` a GridGeometry."""
+    x, origin, inv_h, lo, strides = pts.x, geo.origin, geo.inv_h, geo.lo, geo.strides
     for p in range(x.shape[0]):
-        if level[p] != want:
+        if pts.level[p] != want:
             continue
         base = 0
         for d in range(3):
             base += (np.int64(np.floor((x[p, d] - origin[d]) * inv_h)) - lo[d]) * strides[d]
-        bit = np.int64(1) << np.int64(body[p])
+        bit = np.int64(1) << np.int64(pts.body[p])
         for a in range(2):
             for b in range(2):
                 for c in range(2):
@@ -63,13 +66,13 @@ def number_contact_nodes(mask, slot_of):
 
 
 @njit(cache=True)
-def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot_of, cnodal,
-                              level, want):
+def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
     """Each body's mass, momentum, mass gradient (Eqs. 27-28, 9) and mass-weighted
-    offset from the node (in cells) at the contact nodes, from the particles with
+    offset from the node (in cells) at the contact nodes, from the points with
     ``level[p] == want``."""
+    x, v, origin, inv_h, lo, strides = pts.x, pts.v, geo.origin, geo.inv_h, geo.lo, geo.strides
     for p in range(x.shape[0]):
-        if level[p] != want:
+        if pts.level[p] != want:
             continue
         s0 = (x[p, 0] - origin[0]) * inv_h
         s1 = (x[p, 1] - origin[1]) * inv_h
@@ -78,7 +81,7 @@ def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot
         r0, r1, r2 = s0 - c0, s1 - c1, s2 - c2
         base = ((np.int64(c0) - lo[0]) * strides[0] + (np.int64(c1) - lo[1]) * strides[1]
                 + (np.int64(c2) - lo[2]) * strides[2])
-        b, m = body[p], mass[p]
+        b, m = pts.body[p], pts.mass[p]
         for a in range(2):
             wx, dx = (r0, inv_h) if a else (1.0 - r0, -inv_h)
             for bb in range(2):
@@ -99,29 +102,6 @@ def contact_particles_to_grid(x, v, mass, body, origin, inv_h, lo, strides, slot
                     cnodal[s, b, 7] += mw * (r0 - a)
                     cnodal[s, b, 8] += mw * (r1 - bb)
                     cnodal[s, b, 9] += mw * (r2 - cc)
-
-
-@njit(cache=True, inline="always")
-def _face_mask(n, shape, lo, strides, n_cells, bc, out):
-    """out[d] = boundary code of the box face local node n lies on along d (0 if none)."""
-    for d in range(3):
-        g = lo[d] + (n // strides[d]) % shape[d]
-        out[d] = 0
-        if g == 0:
-            out[d] = bc[2 * d]
-        elif g == n_cells[d]:
-            out[d] = bc[2 * d + 1]
-
-
-@njit(cache=True, inline="always")
-def _constrain(vec, mask):
-    for d in range(3):
-        if mask[d] == FIXED:
-            vec[0] = vec[1] = vec[2] = 0.0
-            return
-    for d in range(3):
-        if mask[d] == SLIP:
-            vec[d] = 0.0
 
 
 @njit(cache=True, inline="always")
@@ -157,7 +137,7 @@ def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
         sign = 1.0 if k == b else -1.0
         for d in range(3):
             out[d] = sign * cnodal[s, k, 4 + d]
-        _constrain(out, mask)
+        constrain(out, mask)
         _normalise(out)
         return
     rest[0] = rest[1] = rest[2] = 0.0
@@ -165,11 +145,11 @@ def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
         if c != b:
             for d in range(3):
                 rest[d] += cnodal[s, c, 4 + d]
-    _constrain(rest, mask)
+    constrain(rest, mask)
     _normalise(rest)
     for d in range(3):
         out[d] = cnodal[s, b, 4 + d]
-    _constrain(out, mask)
+    constrain(out, mask)
     _normalise(out)
     for d in range(3):
         out[d] -= rest[d]
@@ -192,25 +172,26 @@ def _separated(cnodal, s, b, other, normal, limit):
 
 
 @njit(cache=True)
-def contact_start(cnodal, slot_nodes, gvel, master, separation, body_rigid, method, m_tiny,
-                  shape, lo, strides, n_cells, bc, cvel, cnorm):
+def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block):
     """Per-body velocities (Eq. 6) and collinear normals at the contact nodes; method 2
     sets the normal velocity of each approaching body to the centre of mass's (Eqs. 23,
     25, slip form), within the node's boundary conditions, unless the two bodies are
     separated there (:func:`_separated`). ``gvel`` is the shared (centre-of-mass, Eq. 7)
-    velocity."""
+    velocity. Writes ``slots.cvel`` and ``slots.cnorm``."""
+    cnodal, cvel, cnorm = slots.cnodal, slots.cvel, slots.cnorm
+    master, separation = rules.master, rules.separation
     mask = np.zeros(3, np.int64)
     vec = np.empty(3)
     rest = np.empty(3)
-    for s in range(slot_nodes.shape[0]):
-        n = slot_nodes[s]
-        _face_mask(n, shape, lo, strides, n_cells, bc, mask)
+    for s in range(slots.slot_nodes.shape[0]):
+        n = slots.slot_nodes[s]
+        face_codes_of_node(n, block, mask)
         for b in range(cnodal.shape[1]):
             m = cnodal[s, b, 0]
             cnorm[s, b, 0] = cnorm[s, b, 1] = cnorm[s, b, 2] = 0.0
             for d in range(3):
                 vec[d] = cnodal[s, b, 1 + d] / m if m > m_tiny else gvel[n, d]
-            _constrain(vec, mask)
+            constrain(vec, mask)
             if m > m_tiny:
                 other = _heaviest_other(cnodal, s, b, m_tiny)
                 if other >= 0:
@@ -223,15 +204,13 @@ def contact_start(cnodal, slot_nodes, gvel, master, separation, body_rigid, meth
                         if approach > 0.0:
                             for d in range(3):
                                 vec[d] -= approach * cnorm[s, b, d]
-                            _constrain(vec, mask)
+                            constrain(vec, mask)
             for d in range(3):
                 cvel[s, b, d] = vec[d]
 
 
 @njit(cache=True)
-def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, separation,
-                body_rigid, skip_separating, dt, m_tiny, shape, lo, strides, n_cells, bc,
-                cnew):
+def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tiny, block):
     """Trial velocities of each body alone (Eqs. 11, 26); where a body approaches the
     centre of mass (Eq. 12) and is not separated from the other body (:func:`_separated`)
     the contact force of Eq. 22 (normal part Eq. 17, no-slip tangential part Eq. 21
@@ -244,13 +223,16 @@ def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, s
     corrected at the end: the particles' velocities still separate there, and the
     correction would do positive work on them (the elastic rings of seed 001 Sec. 5.1
     gained 20-30 % of their energy so). Without it, Eq. 12 alone decides, as in the
-    paper."""
+    paper. Writes ``slots.cnew``."""
+    cnodal, cvel, cnorm, cforce, cnew = (slots.cnodal, slots.cvel, slots.cnorm, slots.cforce,
+                                         slots.cnew)
+    friction, separation = rules.friction, rules.separation
     mask = np.zeros(3, np.int64)
     acc = np.empty(3)
     tangent = np.empty(3)
-    for s in range(slot_nodes.shape[0]):
-        n = slot_nodes[s]
-        _face_mask(n, shape, lo, strides, n_cells, bc, mask)
+    for s in range(slots.slot_nodes.shape[0]):
+        n = slots.slot_nodes[s]
+        face_codes_of_node(n, block, mask)
         for b in range(cnodal.shape[1]):
             m = cnodal[s, b, 0]
             if m <= m_tiny or body_rigid[b]:
@@ -259,7 +241,7 @@ def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, s
                 continue
             for d in range(3):
                 acc[d] = cforce[s, b, d] / m
-            _constrain(acc, mask)
+            constrain(acc, mask)
             other = _heaviest_other(cnodal, s, b, m_tiny)
             if other >= 0 and not _separated(cnodal, s, b, other, cnorm[s, b],
                                              separation[b, other]):
@@ -273,7 +255,7 @@ def contact_end(cnodal, cvel, cnorm, cforce, slot_nodes, gvel, gnew, friction, s
                 if approach > 0.0 and before >= 0.0:
                     _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
                                               friction[b, other], dt, tangent)
-                    _constrain(acc, mask)
+                    constrain(acc, mask)
             for d in range(3):
                 cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
                 cnew[s, b, 3 + d] = acc[d]

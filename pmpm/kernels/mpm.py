@@ -7,30 +7,35 @@ Nodal arrays of a local block (flat, see ``pmpm.grid.LocalBlock``):
 ``gvel`` (n_nodes, 3): velocity at the start of the step after boundary conditions;
 ``force`` (n_nodes, 3); ``gnew`` (n_nodes, 6): velocity at the end of the step and
 acceleration.
+
+Arguments come as records (``pmpm.kernels.records``): ``pts`` a PointState, ``mat`` a
+MaterialState, ``bodies`` a BodyMaterials, ``loads`` an ExternalLoads, ``geo`` a
+GridGeometry, ``block`` a NodeBlock, and ``contact`` a ContactView or None (then every
+node carries the one shared field, and the contact code is compiled away). The particle
+loops handle only the points with ``pts.level[p] == want`` (one grid of the hierarchy).
 """
 import numpy as np
 from numba import njit
 
 from ..materials.kernels import update_stress
+from .boundary import constrain, face_codes
 from .shape import trilinear
 
-FIXED, SLIP = 2, 1
 NODAL_COMPONENTS = 8
 
 
 @njit(cache=True)
-def particles_to_grid(x, v, mass, body, body_rigid, origin, inv_h, lo, strides, nodal,
-                      level, want):
-    """Scatter mass and momentum (Eqs. 12-13) of the particles with ``level[p] == want``
-    (those of one grid of the hierarchy); rigid bodies also into the rigid slots."""
+def particles_to_grid(pts, rigid, geo, nodal, want):
+    """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
+    x, v = pts.x, pts.v
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     for p in range(x.shape[0]):
-        if level[p] != want:
+        if pts.level[p] != want:
             continue
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
-        m = mass[p]
-        slot = 4 if body_rigid[body[p]] else 0
+        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
+        m = pts.mass[p]
+        slot = 4 if rigid[pts.body[p]] else 0
         for k in range(8):
             n, mw = nodes[k], m * w[k]
             nodal[n, slot] += mw
@@ -39,33 +44,11 @@ def particles_to_grid(x, v, mass, body, body_rigid, origin, inv_h, lo, strides, 
             nodal[n, slot + 3] += mw * v[p, 2]
 
 
-@njit(cache=True, inline="always")
-def _boundary_mask(i, j, k, lo, n_cells, bc, out):
-    """out[d] = code of the box face node (i,j,k) lies on along d (0 if none)."""
-    g = (lo[0] + i, lo[1] + j, lo[2] + k)
-    for d in range(3):
-        out[d] = 0
-        if g[d] == 0:
-            out[d] = bc[2 * d]
-        elif g[d] == n_cells[d]:
-            out[d] = bc[2 * d + 1]
-
-
-@njit(cache=True, inline="always")
-def _constrain(vec, mask):
-    for d in range(3):
-        if mask[d] == FIXED:
-            vec[0] = vec[1] = vec[2] = 0.0
-            return
-    for d in range(3):
-        if mask[d] == SLIP:
-            vec[d] = 0.0
-
-
 @njit(cache=True)
-def nodal_velocities(nodal, shape, lo, strides, n_cells, bc, m_tiny, gvel):
+def nodal_velocities(nodal, block, m_tiny, gvel):
     """Velocity at the start of the step: momentum / mass, rigid bodies imposing theirs,
     then fixed and slip faces."""
+    shape, strides = block.shape, block.strides
     mask = np.zeros(3, np.int64)
     vec = np.empty(3)
     for i in range(shape[0]):
@@ -79,15 +62,16 @@ def nodal_velocities(nodal, shape, lo, strides, n_cells, bc, m_tiny, gvel):
                 elif nodal[n, 0] > m_tiny:
                     for d in range(3):
                         vec[d] = nodal[n, 1 + d] / nodal[n, 0]
-                _boundary_mask(i, j, k, lo, n_cells, bc, mask)
-                _constrain(vec, mask)
+                face_codes(i, j, k, block.lo, block.n_cells, block.boundary, mask)
+                constrain(vec, mask)
                 gvel[n, 0], gvel[n, 1], gvel[n, 2] = vec[0], vec[1], vec[2]
 
 
 @njit(cache=True)
-def integrate_nodes(nodal, force, gvel, dt, shape, lo, strides, n_cells, bc, m_tiny, gnew):
+def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
     """Leap-frog on the nodes (Eq. 14): a = f/m, v_new = v + a dt; rigid nodes keep the
     rigid velocity; fixed and slip faces constrain the acceleration."""
+    shape, strides = block.shape, block.strides
     mask = np.zeros(3, np.int64)
     acc = np.empty(3)
     for i in range(shape[0]):
@@ -98,38 +82,36 @@ def integrate_nodes(nodal, force, gvel, dt, shape, lo, strides, n_cells, bc, m_t
                 if nodal[n, 4] <= 0.0 and nodal[n, 0] > m_tiny:
                     for d in range(3):
                         acc[d] = force[n, d] / nodal[n, 0]
-                    _boundary_mask(i, j, k, lo, n_cells, bc, mask)
-                    _constrain(acc, mask)
+                    face_codes(i, j, k, block.lo, block.n_cells, block.boundary, mask)
+                    constrain(acc, mask)
                 for d in range(3):
                     gnew[n, d] = gvel[n, d] + acc[d] * dt
                     gnew[n, 3 + d] = acc[d]
 
 
 @njit(cache=True)
-def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gnew,
-                      contact, slot_of, cnew, level, want):
+def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want):
     """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
-    accelerations (Eq. 16); rigid particles move with their own velocity. With
-    ``contact``, a particle reads its own body's field ``cnew`` at contact nodes
-    (``slot_of[n] >= 0``; seed 001 Eqs. 33-34). Only particles with ``level[p] ==
-    want``. Returns the index of the first particle whose new position is not finite,
-    else -1."""
+    accelerations (Eq. 16); rigid particles move with their own velocity. At contact
+    nodes a particle reads its own body's field ``cnew`` (seed 001 Eqs. 33-34). Returns
+    the index of the first particle whose new position is not finite, else -1."""
+    x, v, body = pts.x, pts.v, pts.body
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     bad = -1
     for p in range(x.shape[0]):
-        if level[p] != want:
+        if pts.level[p] != want:
             continue
-        if body_rigid[body[p]]:
+        if rigid[body[p]]:
             for d in range(3):
                 x[p, d] += dt * v[p, d]
             continue
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
         dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
         b = body[p]
         for k in range(8):
             n, wk = nodes[k], w[k]
-            s = slot_of[n] if contact else -1
+            s = contact.slot_of[n] if contact is not None else -1
             if s < 0:
                 dx0 += wk * gnew[n, 0]
                 dx1 += wk * gnew[n, 1]
@@ -137,7 +119,8 @@ def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gn
                 dv0 += wk * gnew[n, 3]
                 dv1 += wk * gnew[n, 4]
                 dv2 += wk * gnew[n, 5]
-            else:
+            elif contact is not None:
+                cnew = contact.cnew
                 dx0 += wk * cnew[s, b, 0]
                 dx1 += wk * cnew[s, b, 1]
                 dx2 += wk * cnew[s, b, 2]
@@ -156,125 +139,138 @@ def grid_to_particles(x, v, body, body_rigid, dt, origin, inv_h, lo, strides, gn
 
 
 @njit(cache=True)
-def stress_and_forces(x, v, mass, rho, stress, F, eps_p, e_int, temp, q, body, load, load_scale,
-                      body_code, body_prm, body_rigid, dt, h, gravity, load_vec,
-                      origin, inv_h, lo, strides, gvel, force, contact, slot_of, cvel,
-                      cforce, level, want):
+def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact, want):
     """Update every particle's stress from the nodal velocities (Eq. 29 and the material
     kernel), then scatter its internal and external force (Eqs. 31-32) in the same pass.
-    With ``contact``, at contact nodes (``slot_of[n] >= 0``) a particle sees its own
-    body's velocity ``cvel`` and its force also goes to its body's ``cforce``. Only
-    particles with ``level[p] == want``; ``h`` is that grid's cell size.
+    At contact nodes a particle sees its own body's velocity ``cvel`` and its force also
+    goes to its body's ``cforce``. ``h`` is the level's cell size.
 
     Returns
     -------
     (speed, bad): the largest wave speed plus particle speed (for the CFL step), and the
     index of the first particle whose constitutive update failed (-1 if none).
     """
+    x, v, body = pts.x, pts.v, pts.body
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     slots = np.full(8, -1, np.int64)
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     for p in range(x.shape[0]):
-        if level[p] != want:
+        if pts.level[p] != want:
             continue
         b = body[p]
-        if body_rigid[b]:          # moves with its own velocity, which limits the step too
+        if bodies.rigid[b]:        # moves with its own velocity, which limits the step too
             fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
             continue
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
         Lg[:, :] = 0.0          # L_ij = sum_I v_Ii dN_I/dx_j, written out: as an inlined
         for k in range(8):      # call it costs 7 % of the step in reference counting
-            n = nodes[k]
-            if contact:
-                slots[k] = slot_of[n]
-            if slots[k] < 0:
+            n = nodes[k]        # (every use of ``contact`` sits under a test of None, so
+            s = -1              # that Numba compiles it away when there is no contact)
+            if contact is not None:
+                s = slots[k] = contact.slot_of[n]
+            if s < 0:
                 for i in range(3):
                     vi = gvel[n, i]
                     Lg[i, 0] += vi * gx[k]
                     Lg[i, 1] += vi * gy[k]
                     Lg[i, 2] += vi * gz[k]
-            else:
+            elif contact is not None:
                 for i in range(3):
-                    vi = cvel[slots[k], b, i]
+                    vi = contact.cvel[s, b, i]
                     Lg[i, 0] += vi * gx[k]
                     Lg[i, 1] += vi * gy[k]
                     Lg[i, 2] += vi * gz[k]
-        c = update_stress(p, body_code[b], body_prm[b], dt, h, Lg, stress, F, rho,
-                          eps_p, e_int, temp, q)
+        c = update_stress(p, bodies.codes[b], bodies.params[b], dt, h, Lg, mat)
         if c < 0.0 and bad < 0:
             bad = p
         speed = c + np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2)
         fastest = max(fastest, speed)
-        vol = mass[p] / rho[p]
-        sxx, syy, szz = stress[p, 0] - q[p], stress[p, 1] - q[p], stress[p, 2] - q[p]
-        sxy, syz, szx = stress[p, 3], stress[p, 4], stress[p, 5]
-        ex, ey, ez = mass[p] * gravity[0], mass[p] * gravity[1], mass[p] * gravity[2]
-        li, ls = load[p], load_scale[p]
-        if li >= 0:
-            ex += ls * load_vec[li, 0]
-            ey += ls * load_vec[li, 1]
-            ez += ls * load_vec[li, 2]
-        for k in range(8):
-            n = nodes[k]
-            f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
-            f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
-            f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
-            force[n, 0] += f0
-            force[n, 1] += f1
-            force[n, 2] += f2
-            if slots[k] >= 0:
-                cforce[slots[k], b, 0] += f0
-                cforce[slots[k], b, 1] += f1
-                cforce[slots[k], b, 2] += f2
+        _scatter_particle_force(p, pts, mat, loads, nodes, w, gx, gy, gz, force, contact,
+                                slots)
     return fastest, bad
 
+
+@njit(cache=True, inline="always")
+def _scatter_particle_force(p, pts, mat, loads, nodes, w, gx, gy, gz, force, contact,
+                            slots):
+    """Internal force -vol sigma.grad N and external force N (m g + load) of particle
+    ``p`` to its 8 nodes (Eqs. 31-32), and at contact nodes (``slots[k] >= 0``) to its
+    body's ``cforce`` too."""
+    q = mat.q[p]
+    mass = pts.mass[p]
+    vol = mass / mat.rho[p]
+    sxx, syy, szz = mat.stress[p, 0] - q, mat.stress[p, 1] - q, mat.stress[p, 2] - q
+    sxy, syz, szx = mat.stress[p, 3], mat.stress[p, 4], mat.stress[p, 5]
+    g = loads.gravity
+    ex, ey, ez = mass * g[0], mass * g[1], mass * g[2]
+    li, ls = loads.index[p], loads.scale[p]
+    if li >= 0:
+        ex += ls * loads.vectors[li, 0]
+        ey += ls * loads.vectors[li, 1]
+        ez += ls * loads.vectors[li, 2]
+    b = pts.body[p]
+    for k in range(8):
+        n = nodes[k]
+        f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
+        f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
+        f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+        force[n, 0] += f0
+        force[n, 1] += f1
+        force[n, 2] += f2
+        if contact is not None:
+            s = slots[k]
+            if s >= 0:
+                contact.cforce[s, b, 0] += f0
+                contact.cforce[s, b, 1] += f1
+                contact.cforce[s, b, 2] += f2
 
 
 # -- modified update stress last (MUSL) ------------------------------------------------
 # MUSL splits the pass above in two: the nodal forces from the stresses of the start of the
 # step, then, after the particle velocities are updated and mapped back to the grid, the
-# stress update from those velocities. The two loops below share two inlined helpers.
+# stress update from those velocities.
 
 @njit(cache=True, inline="always")
-def _velocity_gradient(nodes, gx, gy, gz, gvel, contact, slot_of, cvel, b, Lg):
+def _velocity_gradient(nodes, gx, gy, gz, gvel, contact, b, Lg):
     """L_ij = sum_I v_Ii dN_I/dx_j, a particle of body ``b`` reading its own body's
     velocity at contact nodes."""
     Lg[:, :] = 0.0
     for k in range(8):
         n = nodes[k]
-        s = slot_of[n] if contact else -1
+        s = contact.slot_of[n] if contact is not None else -1
         for i in range(3):
-            vi = gvel[n, i] if s < 0 else cvel[s, b, i]
+            vi = gvel[n, i]
+            if contact is not None:
+                if s >= 0:
+                    vi = contact.cvel[s, b, i]
             Lg[i, 0] += vi * gx[k]
             Lg[i, 1] += vi * gy[k]
             Lg[i, 2] += vi * gz[k]
 
 
 @njit(cache=True)
-def update_stresses(x, v, rho, stress, F, eps_p, e_int, temp, q, body, body_code,
-                    body_prm, body_rigid, dt, h, origin, inv_h, lo, strides, gvel, contact,
-                    slot_of, cvel, level, want):
+def update_stresses(pts, mat, bodies, dt, h, geo, gvel, contact, want):
     """MUSL's stress update from the nodal velocities ``gvel`` mapped back from the
     updated particle velocities at the particles' start-of-step positions. Returns
     (speed, bad) as :func:`stress_and_forces`."""
+    x, v = pts.x, pts.v
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     for p in range(x.shape[0]):
-        if level[p] != want:
+        if pts.level[p] != want:
             continue
-        b = body[p]
+        b = pts.body[p]
         speed = np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2)
-        if body_rigid[b]:
+        if bodies.rigid[b]:
             fastest = max(fastest, speed)
             continue
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
-        _velocity_gradient(nodes, gx, gy, gz, gvel, contact, slot_of, cvel, b, Lg)
-        c = update_stress(p, body_code[b], body_prm[b], dt, h, Lg, stress, F, rho,
-                          eps_p, e_int, temp, q)
+        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
+        _velocity_gradient(nodes, gx, gy, gz, gvel, contact, b, Lg)
+        c = update_stress(p, bodies.codes[b], bodies.params[b], dt, h, Lg, mat)
         if c < 0.0 and bad < 0:
             bad = p
         fastest = max(fastest, c + speed)
@@ -282,40 +278,22 @@ def update_stresses(x, v, rho, stress, F, eps_p, e_int, temp, q, body, body_code
 
 
 @njit(cache=True)
-def scatter_forces(x, mass, rho, stress, q, body, load, load_scale, body_rigid, gravity,
-                   load_vec, origin, inv_h, lo, strides, force, contact, slot_of, cforce,
-                   level, want):
-    """MUSL's nodal forces (Eqs. 31-32) from the particles' current stresses; with
-    ``contact`` a particle's force also goes to its body's ``cforce`` at contact nodes."""
+def scatter_forces(pts, mat, rigid, loads, geo, force, contact, want):
+    """MUSL's nodal forces (Eqs. 31-32) from the particles' current stresses; at contact
+    nodes a particle's force also goes to its body's ``cforce``."""
+    x = pts.x
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    slots = np.full(8, -1, np.int64)
     for p in range(x.shape[0]):
-        if level[p] != want or body_rigid[body[p]]:
+        if pts.level[p] != want or rigid[pts.body[p]]:
             continue
-        b = body[p]
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
-        vol = mass[p] / rho[p]
-        sxx, syy, szz = stress[p, 0] - q[p], stress[p, 1] - q[p], stress[p, 2] - q[p]
-        sxy, syz, szx = stress[p, 3], stress[p, 4], stress[p, 5]
-        ex, ey, ez = mass[p] * gravity[0], mass[p] * gravity[1], mass[p] * gravity[2]
-        li, ls = load[p], load_scale[p]
-        if li >= 0:
-            ex += ls * load_vec[li, 0]
-            ey += ls * load_vec[li, 1]
-            ez += ls * load_vec[li, 2]
-        for k in range(8):
-            n = nodes[k]
-            f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
-            f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
-            f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
-            force[n, 0] += f0
-            force[n, 1] += f1
-            force[n, 2] += f2
-            s = slot_of[n] if contact else -1
-            if s >= 0:
-                cforce[s, b, 0] += f0
-                cforce[s, b, 1] += f1
-                cforce[s, b, 2] += f2
+        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
+        if contact is not None:
+            for k in range(8):
+                slots[k] = contact.slot_of[nodes[k]]
+        _scatter_particle_force(p, pts, mat, loads, nodes, w, gx, gy, gz, force, contact,
+                                slots)
 
 
 @njit(cache=True)

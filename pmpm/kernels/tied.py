@@ -51,12 +51,13 @@ def mark_occupied(x, level, origin, inv_h, lo, strides, occupied):
 
 
 @njit(cache=True)
-def find_ties(shape, lo, strides, face_lo, face_hi, ratio, c_shape, c_lo, c_strides,
-              occupied, slaves, masters, weights):
-    """Tied slave nodes of a window block. ``shape, lo, strides``: the window block (level
-    node indices); ``face_lo, face_hi``: level node index of the window's faces;
-    ``c_shape, c_lo, c_strides``: the coarse block. Fills the first rows of ``slaves``,
-    ``masters``, ``weights`` and returns how many."""
+def find_ties(block, face_lo, face_hi, ratio, coarse, occupied, ties):
+    """Tied slave nodes of a window block. ``block``: the window's NodeBlock (level node
+    indices); ``face_lo, face_hi``: level node index of the window's faces; ``coarse``:
+    the coarse NodeBlock. Fills the first rows of ``ties`` (a TieSet's ``slaves``,
+    ``masters``, ``weights``) and returns how many."""
+    shape, lo, strides = block.shape, block.lo, block.strides
+    slaves, masters, weights = ties.slaves, ties.masters, ties.weights
     count = 0
     g = np.empty(3, np.int64)
     for i in range(shape[0]):
@@ -69,16 +70,16 @@ def find_ties(shape, lo, strides, face_lo, face_hi, ratio, c_shape, c_lo, c_stri
                         on_face = True
                 if not on_face:
                     continue
-                if _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters[count],
-                        weights[count]):
+                if _tie(g, ratio, coarse, occupied, masters[count], weights[count]):
                     slaves[count] = i * strides[0] + j * strides[1] + k * strides[2]
                     count += 1
     return count
 
 
 @njit(cache=True)
-def _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters, weights):
+def _tie(g, ratio, coarse, occupied, masters, weights):
     """Master nodes and weights of the slave at level node ``g``; False if not tied."""
+    c_shape, c_lo, c_strides = coarse.shape, coarse.lo, coarse.strides
     cell = np.empty(3, np.int64)
     frac = np.empty(3)
     for d in range(3):
@@ -105,10 +106,11 @@ def _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters, weights):
 
 
 @njit(cache=True)
-def slaves_to_masters(slaves, masters, weights, count, fine, coarse):
-    """coarse[m] += phi_m fine[s] for every tie: slave mass, momentum (Eqs. 17, 20) or
-    force (Eq. 18) added to the master nodes."""
-    for t in range(count):
+def slaves_to_masters(ties, fine, coarse):
+    """coarse[m] += phi_m fine[s] for every tie of a TieSet: slave mass, momentum
+    (Eqs. 17, 20) or force (Eq. 18) added to the master nodes."""
+    slaves, masters, weights = ties.slaves, ties.masters, ties.weights
+    for t in range(ties.count):
         s = slaves[t]
         for k in range(8):
             m = masters[t, k]
@@ -119,10 +121,11 @@ def slaves_to_masters(slaves, masters, weights, count, fine, coarse):
 
 
 @njit(cache=True)
-def masters_to_slaves(slaves, masters, weights, count, coarse, fine):
+def masters_to_slaves(ties, coarse, fine):
     """fine[s] = sum_m phi_m coarse[m]: slave velocity (Eq. 22) or end-of-step velocity
     and acceleration (Eqs. 23-24) interpolated from the master nodes."""
-    for t in range(count):
+    slaves, masters, weights = ties.slaves, ties.masters, ties.weights
+    for t in range(ties.count):
         s = slaves[t]
         for c in range(fine.shape[1]):
             fine[s, c] = 0.0
@@ -135,7 +138,7 @@ def masters_to_slaves(slaves, masters, weights, count, coarse, fine):
 
 
 @njit(cache=True)
-def clear_slave_slots(slaves, count, mask):
+def clear_slave_slots(ties, mask):
     """mask[s] = 0 at the tied slaves: they follow their masters, not a contact field."""
-    for t in range(count):
-        mask[slaves[t]] = 0
+    for t in range(ties.count):
+        mask[ties.slaves[t]] = 0

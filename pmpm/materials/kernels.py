@@ -51,7 +51,8 @@ from .layout import (A, B, C, CHI, CP, EOS_C0, EOS_GAMMA0, EOS_NONE, EOS_S, EOS_
                      NEO_HOOKEAN, Q_LINEAR, Q_QUADRATIC, RHO0, RIGID, T_MELT, T_ROOM,
                      TENSION_CUTOFF, VISCOSITY)
 from .plasticity import plastic_increment, thermal_factor
-from .tensors import (add, all_finite, deviator, double_dot, fdiv, jaumann_rotate, scale,
+from .tensors import (add, all_finite, determinant9, deviator, double_dot, fdiv,
+                      jaumann_rotate, left_cauchy_green, scale,
                       skew9, sym9, trace, von_mises)
 
 __all__ = ["update_stress", "wave_speed", "bulk_viscosity", "mie_gruneisen_pressure",
@@ -100,16 +101,10 @@ def neo_hookean_stress(f, g, k):
     ``sigma = (g/J)(B - I) + (lambda ln J / J) I`` with ``B = F F^T``, ``J = det F`` and
     ``lambda = k - 2g/3``.
     """
-    jac = (f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6])
-           + f[2] * (f[3] * f[7] - f[4] * f[6]))
+    jac = determinant9(f)
     if not jac > 0.0:
         return ZERO6, math.nan
-    bxx = f[0] * f[0] + f[1] * f[1] + f[2] * f[2]
-    byy = f[3] * f[3] + f[4] * f[4] + f[5] * f[5]
-    bzz = f[6] * f[6] + f[7] * f[7] + f[8] * f[8]
-    bxy = f[0] * f[3] + f[1] * f[4] + f[2] * f[5]
-    byz = f[3] * f[6] + f[4] * f[7] + f[5] * f[8]
-    bzx = f[6] * f[0] + f[7] * f[1] + f[8] * f[2]
+    bxx, byy, bzz, bxy, byz, bzx = left_cauchy_green(f)
     g_j = fdiv(g, jac)
     s = scale(deviator((bxx, byy, bzz, bxy, byz, bzx)), g_j)
     lam = k - 2.0 * g / 3.0
@@ -143,16 +138,10 @@ def neo_hookean_wave_speed(f, g, k, rho):
         ``J = 0.65`` the speed is 1.4 times the small-strain one at the same density.
         NaN when ``J <= 0``.
     """
-    jac = (f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6])
-           + f[2] * (f[3] * f[7] - f[4] * f[6]))
+    jac = determinant9(f)
     if not jac > 0.0:
         return math.nan
-    bxx = f[0] * f[0] + f[1] * f[1] + f[2] * f[2]
-    byy = f[3] * f[3] + f[4] * f[4] + f[5] * f[5]
-    bzz = f[6] * f[6] + f[7] * f[7] + f[8] * f[8]
-    bxy = f[0] * f[3] + f[1] * f[4] + f[2] * f[5]
-    byz = f[3] * f[6] + f[4] * f[7] + f[5] * f[8]
-    bzx = f[6] * f[0] + f[7] * f[1] + f[8] * f[2]
+    bxx, byy, bzz, bxy, byz, bzx = left_cauchy_green(f)
     mean = (bxx + byy + bzz) / 3.0
     dev2 = ((bxx - mean) ** 2 + (byy - mean) ** 2 + (bzz - mean) ** 2
             + 2.0 * (bxy * bxy + byz * byz + bzx * bzx))
@@ -439,7 +428,7 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
 
 
 @njit(cache=True, inline="always")
-def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q):
+def update_stress(p, code, prm, dt, h, Lg, mat):
     """Advance the stress and state of particle ``p`` over one step.
 
     Parameters
@@ -456,8 +445,9 @@ def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q
         Characteristic length of the bulk viscosity (cell size).
     Lg : float64[3, 3]
         Velocity gradient at the particle, ``Lg[i, j] = dv_i/dx_j``.
-    stress, F, rho, eps_p, e_int, temp, q : arrays
-        Particle columns (CONTRACTS.md), updated in place at row ``p``.
+    mat : MaterialState
+        The material columns (``pmpm.materials.state``: stress, F, rho, eps_p, e_int,
+        temp, q), updated in place at row ``p``.
 
     Returns
     -------
@@ -497,20 +487,22 @@ def update_stress(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q
              prm[17], prm[18], prm[19], prm[20], prm[21], prm[22], prm[23])
     lg = (Lg[0, 0], Lg[0, 1], Lg[0, 2], Lg[1, 0], Lg[1, 1], Lg[1, 2],
           Lg[2, 0], Lg[2, 1], Lg[2, 2])
+    stress, F = mat.stress, mat.F
     sig_old = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
                stress[p, 5])
     f_old = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4], F[p, 5], F[p, 6], F[p, 7],
              F[p, 8])
     c, sig, f, rho_new, eps_new, e_new, temp_new, q_new = material_step(
-        code, prm_t, dt, h, lg, sig_old, f_old, rho[p], eps_p[p], e_int[p], temp[p], q[p])
+        code, prm_t, dt, h, lg, sig_old, f_old, mat.rho[p], mat.eps_p[p], mat.e_int[p],
+        mat.temp[p], mat.q[p])
     stress[p, 0], stress[p, 1], stress[p, 2] = sig[0], sig[1], sig[2]
     stress[p, 3], stress[p, 4], stress[p, 5] = sig[3], sig[4], sig[5]
     F[p, 0], F[p, 1], F[p, 2] = f[0], f[1], f[2]
     F[p, 3], F[p, 4], F[p, 5] = f[3], f[4], f[5]
     F[p, 6], F[p, 7], F[p, 8] = f[6], f[7], f[8]
-    rho[p] = rho_new
-    eps_p[p] = eps_new
-    e_int[p] = e_new
-    temp[p] = temp_new
-    q[p] = q_new
+    mat.rho[p] = rho_new
+    mat.eps_p[p] = eps_new
+    mat.e_int[p] = e_new
+    mat.temp[p] = temp_new
+    mat.q[p] = q_new
     return c

@@ -187,3 +187,21 @@ def store_stress(stress, p, s, pressure):
     stress[p, 3] = s[3]
     stress[p, 4] = s[4]
     stress[p, 5] = s[5]
+
+
+@njit(cache=True, inline="always")
+def determinant9(f):
+    """det F for a row-major 9-tuple."""
+    return (f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6])
+            + f[2] * (f[3] * f[7] - f[4] * f[6]))
+
+
+@njit(cache=True, inline="always")
+def left_cauchy_green(f):
+    """B = F F^T of a row-major 9-tuple, as Voigt (xx, yy, zz, xy, yz, zx)."""
+    return (f[0] * f[0] + f[1] * f[1] + f[2] * f[2],
+            f[3] * f[3] + f[4] * f[4] + f[5] * f[5],
+            f[6] * f[6] + f[7] * f[7] + f[8] * f[8],
+            f[0] * f[3] + f[1] * f[4] + f[2] * f[5],
+            f[3] * f[6] + f[4] * f[7] + f[5] * f[8],
+            f[6] * f[0] + f[7] * f[1] + f[8] * f[2])

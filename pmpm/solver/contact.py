@@ -1,13 +1,16 @@
 """Multi-velocity grid contact in the step (seed 001 Sec. 4): the pair rules from the
-case, and the phases that build, exchange and use the per-body fields at contact nodes.
-The node loops are in ``pmpm.kernels.contact``."""
+case, and the coupling that builds, exchanges and uses the per-body fields at contact
+nodes. The node loops are in ``pmpm.kernels.contact``."""
 import numpy as np
 
 from ..comm import sum_shared_planes
 from ..comm.exchange import or_shared_planes
 from ..kernels import contact as kc
 from ..kernels import tied
+from ..kernels.records import ContactSlots, ContactView, PairRules
 from ..materials import layout
+from .couplings import Coupling
+from .workspace import Workspace
 
 MAX_BODIES = 62          # one bit per body in the int64 node masks
 
@@ -53,6 +56,9 @@ class ContactRules:
     def active(self):
         return self.method > 0
 
+    def record(self):
+        return PairRules(self.master, self.friction, self.separation)
+
 
 def _limit(separation):
     return np.inf if separation is None else float(separation)
@@ -76,8 +82,48 @@ def _master(rule, a, b, names, stiffness):
     return names.index(rule)
 
 
+class GridContact(Coupling):
+    """Multi-velocity grid contact as a coupling of the step: per-body fields at the
+    contact nodes of every level, the start-of-step correction of method 2 and the
+    end-of-step contact forces (seed 001 Secs. 3-4)."""
+
+    def __init__(self, rules, world, bodies, m_tiny, n_levels):
+        self.rules, self.bodies, self.m_tiny = rules, bodies, m_tiny
+        self.pairs = rules.record()
+        self.fields = [ContactFields(world) for _ in range(n_levels)]
+
+    def after_mass_sum(self, grids, kinds):
+        nb = len(self.bodies.names)
+        for s in grids:
+            self.fields[s.index].map_points(kinds, s, nb)
+
+    def after_velocities(self, grids):
+        for s in grids:
+            f = self.fields[s.index]
+            nb = f.cnodal.shape[1]
+            f.cvel = f.slot_array("cvel", 3, nb, zero=False)
+            f.cnorm = f.slot_array("cnorm", 3, nb, zero=False)
+            kc.contact_start(f.slots(), s.gvel, self.pairs, self.bodies.rigid,
+                             self.rules.method, self.m_tiny, s.nodes)
+            f.cforce = f.slot_array("cforce", 3, nb)
+
+    def after_integrate(self, grids, dt):
+        for s in grids:
+            f = self.fields[s.index]
+            f.sum_on_shared_planes(s.block, f.cforce)
+            f.cnew = f.slot_array("cnew", kc.CNEW, f.cnodal.shape[1], zero=False)
+            kc.contact_end(f.slots(), s.gvel, s.gnew, self.pairs, self.bodies.rigid,
+                           self.rules.skip_separating, dt, self.m_tiny, s.nodes)
+
+    def view(self, state):
+        return self.fields[state.index].view()
+
+    def n_slots(self):
+        return sum(f.n_slots for f in self.fields)
+
+
 class ContactFields:
-    """The per-body nodal fields of one step at the contact nodes of this rank's block.
+    """The per-body nodal fields of one step at the contact nodes of one level's block.
 
     Slots are numbered in local node order and every rank finds the same contact nodes on
     a shared plane (the body masks are OR-ed there first), so a plane's slots are one
@@ -85,21 +131,25 @@ class ContactFields:
     summed with one message per neighbour, like the shared field.
     """
 
-    def __init__(self, rules, world, work, m_tiny):
-        self.rules, self.world, self.work, self.m_tiny = rules, world, work, m_tiny
+    def __init__(self, world):
+        self.world = world
+        self.work = Workspace()
         self.slot_of = np.full(0, -1, np.int64)
         self.slot_nodes = np.zeros(0, np.int64)
-        self.empty = np.zeros((0, 1, 6))
+        self.cnodal = np.zeros((0, 1, kc.CNODAL))
+        self.cvel = self.cnorm = self.cforce = np.zeros((0, 1, 3))
+        self.cnew = np.zeros((0, 1, kc.CNEW))
 
-    def find_contact_nodes(self, particles, grid, block, level_of, want, ties):
-        """Nodes that particles of two or more bodies reach, tied slaves left out (they
+    def find_contact_nodes(self, kinds, state):
+        """Nodes that points of two or more bodies reach, tied slaves left out (they
         follow their masters)."""
+        block = state.block
         mask = np.zeros(block.n_nodes, np.int64)
-        kc.body_masks(particles.x, particles.body, grid.origin, grid.inv_h, block.lo,
-                      block.strides, mask, level_of, want)
+        for kind in kinds:
+            kind.mark_bodies(state, mask)
         or_shared_planes(self.world, block.shared_planes, block.as_planes(mask))
-        if ties is not None:
-            tied.clear_slave_slots(ties.slaves, ties.count, mask)
+        if state.ties is not None:
+            tied.clear_slave_slots(state.ties, mask)
         self.slot_of = np.empty(block.n_nodes, np.int64)
         self.slot_nodes = kc.number_contact_nodes(mask, self.slot_of)
         self.plane_slots = self._plane_slot_ranges(block)
@@ -122,35 +172,21 @@ class ContactFields:
         flat = (self.work.zeros if zero else self.work.empty)(name, rows, width * n_bodies)
         return flat.reshape(rows, n_bodies, width)
 
-    def map_particles(self, particles, grid, block, n_bodies, level_of, want, ties=None):
+    def map_points(self, kinds, state, n_bodies):
         """Per-body mass, momentum, mass gradient and mean offset at the contact nodes of
-        one grid level (``grid``: a ``pmpm.grid.Level``) from its particles
-        (``level_of == want``)."""
-        p = particles
-        self.find_contact_nodes(p, grid, block, level_of, want, ties)
+        one grid level from its points."""
+        self.find_contact_nodes(kinds, state)
         self.cnodal = self.slot_array("cnodal", kc.CNODAL, n_bodies)
-        kc.contact_particles_to_grid(p.x, p.v, p.mass, p.body, grid.origin, grid.inv_h,
-                                     block.lo, block.strides, self.slot_of, self.cnodal,
-                                     level_of, want)
-        self.sum_on_shared_planes(block, self.cnodal)
+        for kind in kinds:
+            kind.scatter_contact(state, self.slot_of, self.cnodal)
+        self.sum_on_shared_planes(state.block, self.cnodal)
 
-    def start_velocities(self, gvel, bodies, grid, block):
-        nb = self.cnodal.shape[1]
-        self.cvel = self.slot_array("cvel", 3, nb, zero=False)
-        self.cnorm = self.slot_array("cnorm", 3, nb, zero=False)
-        kc.contact_start(self.cnodal, self.slot_nodes, gvel, self.rules.master,
-                         self.rules.separation, bodies.rigid, self.rules.method, self.m_tiny,
-                         block.shape, block.lo, block.strides, grid.n_cells, grid.boundary,
-                         self.cvel, self.cnorm)
-        self.cforce = self.slot_array("cforce", 3, nb)
+    def slots(self):
+        return ContactSlots(self.cnodal, self.slot_nodes, self.cvel, self.cnorm, self.cforce,
+                            self.cnew)
 
-    def end_velocities(self, gvel, gnew, bodies, dt, grid, block):
-        self.sum_on_shared_planes(block, self.cforce)
-        self.cnew = self.slot_array("cnew", kc.CNEW, self.cnodal.shape[1], zero=False)
-        kc.contact_end(self.cnodal, self.cvel, self.cnorm, self.cforce, self.slot_nodes, gvel,
-                       gnew, self.rules.friction, self.rules.separation, bodies.rigid,
-                       self.rules.skip_separating, dt, self.m_tiny, block.shape, block.lo,
-                       block.strides, grid.n_cells, grid.boundary, self.cnew)
+    def view(self):
+        return ContactView(self.slot_of, self.cvel, self.cforce, self.cnew)
 
     @property
     def n_slots(self):

@@ -1,128 +1,89 @@
 """The grids of one step on one rank: the coarse grid and the refined windows, each with
-its node block and nodal arrays, and the tied interface between them (seed 000 Sec. 3.1).
-
-The ties are linear in the nodal values, so each rank adds its own (partial) slave
-values to the master nodes *before* the shared planes are summed: a slave on a slab plane
-is then counted once on each rank with its share, a master on a slab plane gets every
-rank's share through the sum, and no value is counted twice. Slave velocities and
-accelerations are interpolated *after* the sums, from complete master values that every
-rank holding the slave has alike.
-"""
+its node block and nodal arrays (seed 000 Sec. 3.1)."""
 import numpy as np
 
 from ..comm import sum_shared_planes
-from ..comm.exchange import or_shared_planes
-from ..kernels import mpm, tied
-from .contact import ContactFields
+from ..kernels import mpm
+from ..kernels.records import GridGeometry, NodeBlock
 from .workspace import Workspace
-
-
-class Ties:
-    """The tied slaves of one window block: ``slaves`` (local window nodes), ``masters``
-    (local coarse nodes, (n, 8), -1: none) and ``weights`` (n, 8); ``count`` rows used."""
-
-    def __init__(self):
-        self.slaves = np.zeros(0, np.int64)
-        self.masters = np.zeros((0, 8), np.int64)
-        self.weights = np.zeros((0, 8))
-        self.count = 0
-
-    def find(self, level, block, coarse_block, occupied):
-        shape = block.shape
-        faces = 2 * (shape[0] * shape[1] + shape[1] * shape[2] + shape[0] * shape[2])
-        if len(self.slaves) < faces:
-            self.slaves = np.empty(faces, np.int64)
-            self.masters = np.empty((faces, 8), np.int64)
-            self.weights = np.empty((faces, 8))
-        face_lo, face_hi = level.window_faces()
-        self.count = tied.find_ties(block.shape, block.lo, block.strides, face_lo, face_hi,
-                                    level.ratio, coarse_block.shape, coarse_block.lo,
-                                    coarse_block.strides, occupied, self.slaves,
-                                    self.masters, self.weights)
-
-    def to_masters(self, fine, coarse):
-        tied.slaves_to_masters(self.slaves, self.masters, self.weights, self.count, fine,
-                               coarse)
-
-    def from_masters(self, coarse, fine):
-        tied.masters_to_slaves(self.slaves, self.masters, self.weights, self.count, coarse,
-                               fine)
 
 
 class LevelState:
     """One grid of the hierarchy on this rank (``index`` 0: the coarse grid; k > 0:
-    window k - 1) and its nodal arrays of the current step (see ``pmpm.kernels.mpm``)."""
+    window k - 1), its node block and its nodal arrays of the current step (see
+    ``pmpm.kernels.mpm``: ``nodal``, ``gvel``, ``force``, ``gnew``), and the records the
+    kernels take: ``geometry`` (GridGeometry) and ``nodes`` (NodeBlock). ``ties`` holds
+    a window's tied slaves (set by the tied interface; None on the coarse grid)."""
 
-    def __init__(self, index, level, rules, world, m_tiny):
+    def __init__(self, index, level):
         self.index, self.level = index, level
         self.work = Workspace()
-        self.contact = ContactFields(rules, world, self.work, m_tiny)
-        self.ties = Ties() if level.is_window else None
+        self.ties = None
         self.block = None
 
     def build_block(self, slabs, rank, cell_range):
-        self.block = self.level.block(slabs, rank, *cell_range)
+        b = self.block = self.level.block(slabs, rank, *cell_range)
+        lv = self.level
+        self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides)
+        self.nodes = NodeBlock(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary)
 
 
 class Hierarchy:
-    """The levels of one rank and the phases that couple them."""
+    """The levels of one rank: the coarse grid first, then the windows."""
 
-    def __init__(self, grid_levels, rules, world, m_tiny):
+    def __init__(self, grid_levels, world):
         self.world = world
-        self.states = [LevelState(i, level, rules, world, m_tiny)
-                       for i, level in enumerate(grid_levels)]
+        self.levels = list(grid_levels)
+        self.states = [LevelState(i, level) for i, level in enumerate(self.levels)]
         self.coarse = self.states[0]
         self.windows = self.states[1:]
-        self.occupied = np.zeros(0, np.int64)
 
     def __iter__(self):
         return iter(self.states)
 
+    def build_blocks(self, slabs, rank, cell_ranges):
+        for state, cell_range in zip(self.states, cell_ranges):
+            state.build_block(slabs, rank, cell_range)
+
+    def zeros(self, name, width):
+        """A zeroed nodal array ``name`` (n_nodes, width) on every level."""
+        for s in self.states:
+            setattr(s, name, s.work.zeros(name, s.block.n_nodes, width))
+
+    def empty(self, name, width):
+        """An uninitialised nodal array ``name`` on every level (a kernel fills it)."""
+        for s in self.states:
+            setattr(s, name, s.work.empty(name, s.block.n_nodes, width))
+
     def sum_shared(self, name):
-        for state in self.states:
-            b = state.block
-            sum_shared_planes(self.world, b.shared_planes, b.as_planes(getattr(state, name)))
-
-    def tie_windows(self, x, level_of):
-        """Find every window's tied slaves (on the coarse nodes of cells holding coarse
-        particles, complete over ranks) and add their mass and momentum to the masters."""
-        if not self.windows:
-            return
-        c = self.coarse
-        b = c.block
-        if len(self.occupied) < b.n_nodes:
-            self.occupied = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.int64)
-        occupied = self.occupied[:b.n_nodes]
-        occupied.fill(0)
-        tied.mark_occupied(x, level_of, c.level.origin, c.level.inv_h, b.lo, b.strides,
-                           occupied)
-        or_shared_planes(self.world, b.shared_planes, b.as_planes(occupied))
-        for w in self.windows:
-            w.ties.find(w.level, w.block, b, occupied)
-            w.ties.to_masters(w.nodal, c.nodal)
-
-    def slave_velocities(self):
-        for w in self.windows:
-            w.ties.from_masters(self.coarse.gvel, w.gvel)
-
-    def slave_forces_to_masters(self):
-        for w in self.windows:
-            w.ties.to_masters(w.force, self.coarse.force)
-
-    def slave_motion(self):
-        for w in self.windows:
-            w.ties.from_masters(self.coarse.gnew, w.gnew)
+        """Sum the nodal array ``name`` on the slab planes shared with neighbours."""
+        for s in self.states:
+            b = s.block
+            sum_shared_planes(self.world, b.shared_planes, b.as_planes(getattr(s, name)))
 
     def n_nodes(self):
         return sum(s.block.n_nodes for s in self.states)
 
+    def spans(self, grid, x, level_of):
+        """Per level, (-lowest, highest) level cell of the points ``x`` (on levels
+        ``level_of``) inside the grid box: float64 (n_levels * 6,), for one MAX
+        reduction over ranks."""
+        ratios = np.array([lv.ratio for lv in self.levels], np.int64)
+        inv_hs = np.array([lv.inv_h for lv in self.levels])
+        span = np.empty(6 * len(self.levels))
+        mpm.level_spans(x, level_of, grid.origin, 1.0 / grid.h, grid.n_cells, ratios,
+                        inv_hs, span)
+        return span
 
-def level_spans(x, level_of, grid, levels):
-    """Per level, (-lowest, highest) level cell of its particles inside the grid box:
-    float64 (n_levels * 6,), for one MAX reduction over ranks."""
-    ratios = np.array([lv.ratio for lv in levels], np.int64)
-    inv_hs = np.array([lv.inv_h for lv in levels])
-    span = np.empty(6 * len(levels))
-    mpm.level_spans(x, level_of, grid.origin, 1.0 / grid.h, grid.n_cells, ratios, inv_hs,
-                    span)
-    return span
+
+def cell_ranges(spans):
+    """Per level, (lowest, highest) cell from reduced spans (-lowest, highest) * levels;
+    an empty range (highest < lowest) where a level has no particle."""
+    ranges = []
+    for start in range(0, len(spans), 6):
+        span = spans[start:start + 6]
+        lo, hi = (-span[:3]).astype(np.int64), span[3:6].astype(np.int64)
+        if np.any(hi < lo):
+            lo, hi = np.zeros(3, np.int64), -np.ones(3, np.int64)
+        ranges.append((lo, hi))
+    return ranges

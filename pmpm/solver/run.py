@@ -52,14 +52,11 @@ class Runner:
 
     def restore(self, scalars):
         """Continue the counters of the run a checkpoint came from (see save_checkpoint)."""
-        sim = self.sim
         self.particle_steps = scalars["particle_steps"]
         self.n_initial = scalars["n_initial"]
         self.step_wall = scalars.get("step_wall", 0.0)
         self.wall_before = scalars.get("wall_s", 0.0)
         self.last_checkpoint = scalars["step"]
-        sim.stepper.fastest = scalars["fastest"]
-        sim.stepper.lost = scalars.get("lost", 0)
 
     # -- run ---------------------------------------------------------------------
     def run(self, compile_s=0.0, baseline_rss=0):
@@ -90,33 +87,29 @@ class Runner:
 
     def next_dt(self):
         sim = self.sim
-        fastest = sim.stepper.fastest if sim.step_count > 0 or sim.stepper.fastest > 0 \
-            else sim.initial_speed()
+        fastest = sim.fastest_speed()
         dt = min(self.cfl * sim.grid.h / fastest if fastest > 0 else self.dt_max, self.dt_max)
         target = self.schedule.next_after(sim.time, 1e-12 * self.end) or self.end
         return min(dt, target - sim.time)
 
     def advance(self, dt):
         sim = self.sim
-        sim.stepper.load_vec = sim.load_vectors(sim.time + 0.5 * dt)
         n = self.world.sum(sim.particles.n)
         tick = clock.perf_counter()
         try:
-            sim.stepper.step(dt)
+            sim.advance(dt)
         except SolverError as err:
             raise SolverError(self.fault_message(err, dt)) from None
         self.step_wall += clock.perf_counter() - tick
         self.particle_steps += n
-        sim.time += dt
-        sim.step_count += 1
 
     def after_step(self, dt):
         sim, step = self.sim, self.sim.step_count
         if step % SORT_EVERY == 0:
-            sim.stepper.sort_by_cell()
+            sim.sort_by_cell()
         decomposition = self.case.get("decomposition", {})
         if step % int(decomposition.get("check_every", 50)) == 0:
-            sim.stepper.rebalance(float(decomposition.get("rebalance_threshold", 0.2)))
+            sim.rebalance(float(decomposition.get("rebalance_threshold", 0.2)))
         at_frame = any(abs(sim.time - t) <= 1e-9 * self.end for t in self.schedule.times)
         if at_frame:
             self.write_frame()
@@ -171,11 +164,9 @@ class Runner:
     def save_checkpoint(self, dt):
         sim = self.sim
         scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
-                   "slab_axis": sim.slabs.axis, "slab_bounds": sim.slabs.bounds.tolist(),
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
-                   "frame_index": self.frame_index, "fastest": sim.stepper.fastest,
-                   "lost": int(sim.stepper.lost), "step_wall": self.step_wall,
-                   "wall_s": self.wall(), "refine": sim.stepper.refiner.state()}
+                   "frame_index": self.frame_index, "step_wall": self.step_wall,
+                   "wall_s": self.wall(), **sim.restart_state()}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
         self.last_checkpoint = sim.step_count
 
@@ -211,7 +202,7 @@ class Runner:
             "compile_s": self.compile_s,
             "particle_steps_per_s": self.rate(),
             "particle_steps_per_s_per_rank": self.rate() / self.world.size,
-            "particles_lost": int(sim.stepper.lost),
+            "particles_lost": int(sim.lost),
             "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
             "windows": self.window_summary(),
             "energy": energies(self.world, sim.particles),
@@ -221,12 +212,11 @@ class Runner:
 
     def window_summary(self):
         """Each refined window's final box (mm), ratio and particle count."""
-        grid, stepper = self.sim.grid, self.sim.stepper
-        counts = self.world.sum(np.bincount(stepper.assign_levels(),
-                                            minlength=len(stepper.levels)))
+        grid = self.sim.grid
+        counts = self.sim.window_counts()
         return [{"min": (grid.origin + w.lo * grid.h).tolist(),
                  "max": (grid.origin + w.hi * grid.h).tolist(), "ratio": w.ratio,
-                 "n_particles": int(counts[1 + i])} for i, w in enumerate(stepper.windows)]
+                 "n_particles": int(counts[1 + i])} for i, w in enumerate(self.sim.windows)]
 
     def body_summary(self):
         stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)

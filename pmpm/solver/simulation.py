@@ -1,38 +1,57 @@
-"""Build the initial state of a run from a validated case, or from a checkpoint."""
+"""Build the initial state of a run from a validated case, or from a checkpoint, and
+what the run loop asks of it."""
 import numpy as np
 
 from ..comm.slabs import Slabs, choose_slabs
-from ..grid import CoarseGrid, Window
+from ..grid import CoarseGrid, Level, Window
 from ..particles import Particles
 from .bodies import BodyTable, assign_loads, build_particles, fill_positions
+from .contact import ContactRules, GridContact
+from .couplings import TiedInterface
+from .decomposition import Decomposition
 from .errors import SetupError
+from .levels import Hierarchy
+from .particle_bodies import ParticleBodies
+from .refine import Refiner
+from .schemes import make_scheme
 from .step import Stepper
 
 
 class Simulation:
-    """Everything one rank needs to step a case: grid, slabs, its particles, bodies."""
+    """Everything one rank needs to step a case: grid, decomposition, body kinds,
+    couplings, and the stepper that runs them."""
 
     def __init__(self, world, case, grid, slabs, particles, bodies, id_base=None):
         self.world, self.case, self.grid = world, case, grid
         self.bodies = bodies
         n_total = max(world.sum(particles.n), 1)
         mean_mass = world.sum(float(particles.mass.sum())) / n_total
+        m_tiny = 1e-12 * mean_mass
         self.windows = make_windows(case, grid, bodies.names)
-        self.stepper = Stepper(world, grid, slabs, particles, bodies,
-                               case.get("gravity", [0, 0, 0]), 1e-12 * mean_mass,
-                               case.get("contact"), self.windows,
-                               n_total if id_base is None else id_base,
-                               case.get("time", {}).get("scheme", "usf"))
+        self.grids = Hierarchy([Level(grid)] + [Level(grid, w) for w in self.windows], world)
+        self.points = ParticleBodies(particles, bodies, case.get("gravity", [0, 0, 0]))
+        self.kinds = [self.points]
+        self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows)
+        self.refiner = Refiner(world, grid, self.windows, self.kinds,
+                               n_total if id_base is None else id_base)
+        rules = ContactRules(case.get("contact") or {}, bodies)
+        couplings = [TiedInterface(world)] if self.windows else []
+        if rules.active:
+            couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states)))
+        self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
+                               make_scheme(case.get("time", {}).get("scheme", "usf")),
+                               self.refiner, m_tiny)
+        self.decomposition.update_cell_ranges(self.kinds)
         self.loads = case.get("loads", [])
         self.time, self.step_count = 0.0, 0
 
     @property
     def particles(self):
-        return self.stepper.particles
+        return self.points.particles
 
     @property
     def slabs(self):
-        return self.stepper.slabs
+        return self.decomposition.slabs
 
     @classmethod
     def from_case(cls, world, case, case_dir, fill_body):
@@ -62,11 +81,54 @@ class Simulation:
         sim = cls(world, case, grid, slabs, particles, bodies,
                   refined["id_base"] if refined else None)
         if refined:
-            sim.stepper.refiner.restore(refined)
-        sim.stepper.send_to_owners(slabs)
-        sim.stepper.cell_ranges = sim.stepper.global_cell_ranges()
+            sim.refiner.restore(refined)
+        sim.decomposition.send_to_owners(sim.kinds)
+        sim.decomposition.update_cell_ranges(sim.kinds)
         sim.time, sim.step_count = scalars["time"], scalars["step"]
+        sim.stepper.fastest = scalars["fastest"]
+        sim.decomposition.lost = scalars.get("lost", 0)
         return sim
+
+    # -- what the run loop asks --------------------------------------------------------
+    def advance(self, dt):
+        """One step of ``dt`` from ``time``, the loads at the step's mid-time."""
+        self.points.load_vectors = self.load_vectors(self.time + 0.5 * dt)
+        self.stepper.step(dt)
+        self.time += dt
+        self.step_count += 1
+
+    def fastest_speed(self):
+        """The fastest wave plus point speed of the last step, as the speed that gives
+        the same Courant number on the coarse grid (before the first step: the initial
+        one)."""
+        fastest = self.stepper.fastest
+        if self.step_count > 0 or fastest > 0:
+            return fastest
+        return self.initial_speed()
+
+    @property
+    def lost(self):
+        return self.decomposition.lost
+
+    def sort_by_cell(self):
+        for kind in self.kinds:
+            kind.sort_by_cell(self.grid)
+
+    def rebalance(self, threshold):
+        return self.decomposition.rebalance(threshold, self.kinds)
+
+    def restart_state(self):
+        """What a checkpoint keeps beyond the points' columns."""
+        return {"slab_axis": self.slabs.axis, "slab_bounds": self.slabs.bounds.tolist(),
+                "fastest": self.stepper.fastest, "lost": int(self.lost),
+                "refine": self.refiner.state()}
+
+    def window_counts(self):
+        """Points on each grid level, over all ranks (0: the coarse grid)."""
+        self.decomposition.assign_levels(self.kinds)
+        local = sum(np.bincount(k.level_of, minlength=len(self.grids.states))
+                    for k in self.kinds)
+        return self.world.sum(local)
 
     def initial_speed(self):
         """Largest initial wave speed plus particle speed, over all ranks."""

@@ -1,0 +1,100 @@
+"""Couplings: what ties the fields of the step together beyond one body on one grid.
+
+A coupling answers the step's hooks (all optional, in step order):
+``after_scatter`` (before the shared-plane sums of mass and momentum),
+``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums) and
+``after_integrate``; and gives the point kernels its ``view`` of a level (None: the point
+kernels see the one shared field). Today: the tied interface between refined windows and
+the coarse grid (seed 000 Sec. 3) and multi-velocity grid contact (seed 001,
+``pmpm.solver.contact``).
+"""
+import numpy as np
+
+from ..comm.exchange import or_shared_planes
+from ..kernels import tied
+from ..kernels.records import TieSet
+
+
+class Coupling:
+    """The no-op coupling: every hook does nothing, the view is the shared field."""
+
+    def after_scatter(self, grids, kinds):
+        pass
+
+    def after_mass_sum(self, grids, kinds):
+        pass
+
+    def after_velocities(self, grids):
+        pass
+
+    def after_forces(self, grids):
+        pass
+
+    def after_integrate(self, grids, dt):
+        pass
+
+    def view(self, state):
+        return None
+
+
+class TiedInterface(Coupling):
+    """Refined windows tied to the coarse grid (seed 000 Eqs. 17-24).
+
+    The ties are linear in the nodal values, so each rank adds its own (partial) slave
+    values to the master nodes *before* the shared planes are summed: a slave on a slab
+    plane is then counted once on each rank with its share, a master on a slab plane gets
+    every rank's share through the sum, and no value is counted twice. Slave velocities
+    and accelerations are interpolated *after* the sums, from complete master values that
+    every rank holding the slave has alike.
+    """
+
+    def __init__(self, world):
+        self.world = world
+        self.occupied = np.zeros(0, np.int64)
+        self.buffers = {}
+
+    def after_scatter(self, grids, kinds):
+        """Find every window's tied slaves (on the coarse nodes of cells holding coarse
+        particles, complete over ranks) and add their mass and momentum to the masters."""
+        occupied = self.occupied_nodes(grids.coarse, kinds)
+        for w in grids.windows:
+            w.ties = self.find_ties(w, grids.coarse, occupied)
+            tied.slaves_to_masters(w.ties, w.nodal, grids.coarse.nodal)
+
+    def occupied_nodes(self, coarse, kinds):
+        b = coarse.block
+        if len(self.occupied) < b.n_nodes:
+            self.occupied = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.int64)
+        occupied = self.occupied[:b.n_nodes]
+        occupied.fill(0)
+        for kind in kinds:
+            kind.mark_occupied(coarse, occupied)
+        or_shared_planes(self.world, b.shared_planes, b.as_planes(occupied))
+        return occupied
+
+    def find_ties(self, window, coarse, occupied):
+        shape = window.block.shape
+        faces = 2 * (shape[0] * shape[1] + shape[1] * shape[2] + shape[0] * shape[2])
+        slaves, masters, weights = self.buffers.get(window.index, (np.zeros(0, np.int64),) * 3)
+        if len(slaves) < faces:
+            slaves = np.empty(faces, np.int64)
+            masters = np.empty((faces, 8), np.int64)
+            weights = np.empty((faces, 8))
+            self.buffers[window.index] = slaves, masters, weights
+        face_lo, face_hi = window.level.window_faces()
+        ties = TieSet(slaves, masters, weights, 0)
+        count = tied.find_ties(window.nodes, face_lo, face_hi, window.level.ratio,
+                               coarse.nodes, occupied, ties)
+        return ties._replace(count=count)
+
+    def after_velocities(self, grids):
+        for w in grids.windows:
+            tied.masters_to_slaves(w.ties, grids.coarse.gvel, w.gvel)
+
+    def after_forces(self, grids):
+        for w in grids.windows:
+            tied.slaves_to_masters(w.ties, w.force, grids.coarse.force)
+
+    def after_integrate(self, grids, dt):
+        for w in grids.windows:
+            tied.masters_to_slaves(w.ties, grids.coarse.gnew, w.gnew)

@@ -1,0 +1,98 @@
+"""Who holds what: the slabs of the coarse grid each rank owns, the cells of every grid
+level that hold points (the extent of each rank's node blocks), migration of points to
+their slab's rank, and rebalancing of the slab planes (DESIGN.md "Parallel model")."""
+import numpy as np
+
+from ..comm import migrate_store
+from ..comm.slabs import Slabs, balanced_bounds
+from .errors import SolverError
+from .levels import cell_ranges
+
+
+class Decomposition:
+    """The slab decomposition of one run, over every body kind's points.
+
+    Parameters
+    ----------
+    world : comm.World
+    grid : grid.CoarseGrid
+    slabs : comm.Slabs
+    grids : solver.levels.Hierarchy   (its levels give the per-level cell ranges)
+    windows : list of grid.Window
+    """
+
+    def __init__(self, world, grid, slabs, grids, windows):
+        self.world, self.grid, self.slabs = world, grid, slabs
+        self.grids, self.windows = grids, windows
+        self.cell_ranges = []
+        self.lost = 0
+
+    def assign_levels(self, kinds):
+        for kind in kinds:
+            kind.assign_levels(self.grid, self.windows)
+
+    def spans(self, kinds):
+        """Per level, (-lowest, highest) cell of every kind's points (max over kinds)."""
+        self.assign_levels(kinds)
+        spans = [self.grids.spans(self.grid, k.particles.x, k.level_of) for k in kinds]
+        return np.maximum.reduce(spans)
+
+    def update_cell_ranges(self, kinds):
+        self.cell_ranges = cell_ranges(self.world.max(self.spans(kinds)))
+
+    def build_blocks(self):
+        self.grids.build_blocks(self.slabs, self.world.rank, self.cell_ranges)
+
+    def finish_step(self, kinds, fastest, fault):
+        """Drop points that left the grid box, send the rest to their slab owners, and
+        agree on the next step's cell ranges and wave speed: one MAX reduction, plus an
+        Alltoallv only when some point changes rank. Raises the first rank's ``fault``
+        on every rank. Returns the fastest speed over all ranks."""
+        owners = [np.empty(k.n, np.int64) for k in kinds]
+        outside = [k.classify(self.grid, self.slabs, o) for k, o in zip(kinds, owners)]
+        moving = [np.count_nonzero((o != self.world.rank) & (o >= 0)) for o in owners]
+        head = [fastest, 1.0 if fault else 0.0]
+        local = np.concatenate([head, outside, moving, self.spans(kinds)]).astype(np.float64)
+        glob = self.world.max(local)
+        if glob[1] > 0:
+            raise SolverError(self.world.first_message(fault))
+        n = len(kinds)
+        self.cell_ranges = cell_ranges(glob[2 + 2 * n:])
+        for i, kind in enumerate(kinds):
+            owner = owners[i]
+            if glob[2 + i] > 0:
+                self.lost += self.world.sum(outside[i])
+                kind.particles.take(owner >= 0)
+                owner = owner[owner >= 0]
+            if glob[2 + n + i] > 0:
+                migrate_store(self.world, owner, kind.particles, check=False)
+        return glob[0]
+
+    def send_to_owners(self, kinds):
+        for kind in kinds:
+            cells = kind.slab_cells(self.grid, self.slabs.axis) if kind.n else \
+                np.zeros(0, np.int64)
+            owners = self.slabs.owner_of_cells(cells).astype(np.int64)
+            migrate_store(self.world, owners, kind.particles)
+
+    def rebalance(self, threshold, kinds):
+        """Move slab planes when max/mean point count - 1 exceeds ``threshold``.
+        Returns the imbalance before any move, and whether the slabs moved."""
+        counts = self.slab_axis_histogram(kinds)
+        imbalance = self.slabs.imbalance(counts)
+        if self.world.size == 1 or imbalance <= threshold:
+            return imbalance, False
+        new = Slabs(self.slabs.axis, balanced_bounds(counts, self.world.size))
+        if new == self.slabs:
+            return imbalance, False
+        self.slabs = new
+        self.send_to_owners(kinds)
+        self.update_cell_ranges(kinds)
+        return imbalance, True
+
+    def slab_axis_histogram(self, kinds):
+        a = self.slabs.axis
+        n = int(self.grid.n_cells[a])
+        local = sum(np.bincount(k.slab_cells(self.grid, a), minlength=n).astype(np.int64)
+                    for k in kinds)
+        return self.world.sum(local)

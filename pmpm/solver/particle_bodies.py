@@ -1,0 +1,170 @@
+"""The particle bodies of one rank as a body kind of the step: what particles do in each
+phase (seed 000 Eqs. 12-16, seed 001 Eqs. 27-34), on each grid of the hierarchy.
+
+A body kind answers the phases of :class:`pmpm.solver.step.Stepper`; a second kind
+(finite-element bodies) answers the same calls with its own kernels.
+"""
+import numpy as np
+
+from ..kernels import contact as kc
+from ..kernels import mpm, tied
+from ..kernels.records import BodyMaterials, ExternalLoads, PointState
+from ..grid import window_bounds
+from ..particles.split import split
+from .workspace import Workspace
+
+
+class ParticleBodies:
+    """The particles this rank owns, with the per-body tables the kernels index.
+
+    Parameters
+    ----------
+    particles : particles.Particles
+    bodies : solver.bodies.BodyTable
+    gravity : (3,) array
+    """
+
+    label = "particle"
+
+    def __init__(self, particles, bodies, gravity):
+        self.particles, self.bodies = particles, bodies
+        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self.load_vectors = np.zeros((1, 3))
+        self.materials = BodyMaterials(bodies.codes, bodies.params, bodies.rigid)
+        self.level_of = np.zeros(0, np.int32)
+        self.work = Workspace()
+        self.fault = None
+
+    # -- records --------------------------------------------------------------------
+    def points(self):
+        p = self.particles
+        return PointState(p.x, p.v, p.mass, p.body, self.level_of)
+
+    def loads(self):
+        p = self.particles
+        return ExternalLoads(self.gravity, self.load_vectors, p.load, p.load_scale)
+
+    @property
+    def n(self):
+        return self.particles.n
+
+    # -- grid levels -------------------------------------------------------------------
+    def assign_levels(self, grid, windows):
+        """The grid each particle maps to: the window holding it, else the coarse grid."""
+        p = self.particles
+        if len(self.level_of) != p.n:
+            self.level_of = np.zeros(p.n, np.int32)
+        if windows:
+            lo, hi = window_bounds(windows)
+            tied.particle_levels(p.x, grid.origin, 1.0 / grid.h, lo, hi, self.level_of)
+        return self.level_of
+
+    # -- phases ------------------------------------------------------------------------
+    def scatter_mass_momentum(self, state):
+        mpm.particles_to_grid(self.points(), self.bodies.rigid, state.geometry, state.nodal,
+                              state.index)
+
+    def mark_occupied(self, coarse, occupied):
+        """The coarse nodes of cells holding coarse particles (the tied-interface search)."""
+        g = coarse.geometry
+        tied.mark_occupied(self.particles.x, self.level_of, g.origin, g.inv_h, g.lo,
+                           g.strides, occupied)
+
+    def mark_bodies(self, state, mask):
+        kc.body_masks(self.points(), state.geometry, mask, state.index)
+
+    def scatter_contact(self, state, slot_of, cnodal):
+        kc.contact_particles_to_grid(self.points(), state.geometry, slot_of, cnodal,
+                                     state.index)
+
+    def stress_and_forces(self, state, dt, contact):
+        """USF: stresses from the start-of-step nodal velocities and the nodal forces in one
+        pass. Returns the fastest wave plus particle speed, as the speed that gives the
+        same Courant number on the coarse grid."""
+        lv = state.level
+        fastest, bad = mpm.stress_and_forces(
+            self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
+            state.geometry, state.gvel, state.force, contact, state.index)
+        self.note_fault(bad, FAILED_UPDATE)
+        return fastest * lv.ratio
+
+    def scatter_forces(self, state, contact):
+        """MUSL: nodal forces from the stresses of the start of the step (Eqs. 31-32)."""
+        mpm.scatter_forces(self.points(), self.particles.material, self.bodies.rigid,
+                           self.loads(), state.geometry, state.force, contact, state.index)
+
+    def update_stresses(self, state, dt, contact):
+        """MUSL: stresses from the nodal velocities mapped back from the updated particle
+        velocities. Returns the speed as :meth:`stress_and_forces`."""
+        lv = state.level
+        fastest, bad = mpm.update_stresses(
+            self.points(), self.particles.material, self.materials, dt, lv.h,
+            state.geometry, state.gvel, contact, state.index)
+        self.note_fault(bad, FAILED_UPDATE)
+        return fastest * lv.ratio
+
+    def grid_to_points(self, state, dt, contact):
+        bad = mpm.grid_to_particles(self.points(), self.bodies.rigid, dt, state.geometry,
+                                    state.gnew, contact, state.index)
+        self.note_fault(bad, "position is not finite")
+
+    # -- MUSL: the stress update runs at the start-of-step positions --------------------
+    def remember_start_positions(self):
+        self.x_start = self.copy_of("x_start", self.particles.x)
+
+    def back_to_start_positions(self):
+        """Keep the moved positions aside and put the particles back where the step began."""
+        self.x_moved = self.copy_of("x_moved", self.particles.x)
+        self.particles.x[:] = self.x_start
+
+    def on_to_moved_positions(self):
+        self.particles.x[:] = self.x_moved
+
+    def copy_of(self, name, array):
+        copy = self.work.empty(name, len(array), 3)
+        copy[:] = array
+        return copy
+
+    # -- faults ------------------------------------------------------------------------
+    def note_fault(self, bad, what):
+        """Remember this rank's first bad particle of the step; the end-of-step reduction
+        tells every rank, and every rank then raises the same error (no extra collective
+        per phase)."""
+        if bad >= 0 and self.fault is None:
+            p = self.particles
+            self.fault = (f"particle id {int(p.id[bad])} of body "
+                          f"'{self.bodies.names[int(p.body[bad])]}': {what}")
+
+    # -- ownership ---------------------------------------------------------------------
+    def classify(self, grid, slabs, owner):
+        """Owner rank of each particle (-1: left the grid box); returns how many left."""
+        return mpm.classify_particles(self.particles.x, grid.origin, 1.0 / grid.h,
+                                      grid.n_cells, slabs.axis, slabs.bounds, owner)
+
+    def slab_cells(self, grid, axis):
+        return grid.cells_of(self.particles.x)[:, axis]
+
+    def sort_by_cell(self, grid):
+        """Order particles by coarse cell so scatter and gather walk memory in order."""
+        p = self.particles
+        keys = mpm.cell_keys(p.x, grid.origin, 1.0 / grid.h, grid.n_cells)
+        p.take(np.argsort(keys, kind="stable"))
+
+    # -- refinement (seed 000 Sec. 3.4) -------------------------------------------------
+    def split_entering(self, ratios, id_base, id_stride):
+        """Split every particle whose spacing is coarser than the window it is in: a
+        particle of ``refine`` r in a window of ratio R becomes (R // r)^3 particles."""
+        p = self.particles
+        factors = ratios[self.level_of] // p.refine
+        parents = np.flatnonzero(factors >= 2)
+        if len(parents):
+            split(p, parents, factors[parents], id_base, id_stride)
+
+    def mass_moments(self, body):
+        """(sum m x, sum m) of one body's particles, for its centroid."""
+        p = self.particles
+        mine = p.body == body
+        return p.mass[mine] @ p.x[mine], p.mass[mine].sum()
+
+
+FAILED_UPDATE = "constitutive update failed (NaN, non-convergence or non-positive density)"
