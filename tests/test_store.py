@@ -1,0 +1,120 @@
+"""The column store (serial): the particle table, the material group, take / append /
+replace, sizes, and an element-like store with its own columns sharing the group."""
+import numpy as np
+import pytest
+
+from pmpm.materials.state import MATERIAL_COLUMNS, MaterialState
+from pmpm.particles import COLUMNS, MATERIAL_GROUP, ColumnStore, Particles, column_table
+from pmpm.particles.store import IDENTITY9, empty_column
+
+OLD_ORDER = ["x", "v", "mass", "rho", "vol0", "stress", "F", "eps_p", "e_int", "temp", "q",
+             "load_scale", "id", "body", "load", "refine"]
+
+
+class Elements(ColumnStore):
+    COLUMNS = column_table([("nodes", np.int64, 8), ("volume", np.float64, 1)],
+                           groups=[MATERIAL_GROUP])
+
+
+def numbered(n, cls=Particles):
+    """A store whose every value encodes its row, so reorderings show in every column."""
+    store = cls.empty(n)
+    for name, column in store.columns().items():
+        width = column[0].size if n else 1
+        values = np.arange(n)[:, None] * 100 + np.arange(width)
+        store.replace_column(name, values.reshape(column.shape))
+    return store
+
+
+def test_particle_columns_keep_their_order_and_types():
+    assert list(COLUMNS) == OLD_ORDER
+    assert COLUMNS["stress"] == (np.float64, 6) and COLUMNS["F"] == (np.float64, 9)
+    assert COLUMNS["id"] == (np.int64, 1) and COLUMNS["refine"] == (np.int32, 1)
+    assert list(Particles.empty(3).columns()) == OLD_ORDER
+    assert tuple(MATERIAL_GROUP) == MATERIAL_COLUMNS
+
+
+def test_empty_store_and_columns():
+    p = Particles.empty(4)
+    assert p.n == 4 and p.x.shape == (4, 3) and p.mass.shape == (4,)
+    assert p.id.dtype == np.int64 and p.body.dtype == np.int32
+    assert empty_column("F", 2).shape == (2, 9)
+    assert IDENTITY9.reshape(3, 3).tolist() == np.eye(3).tolist()
+    assert Particles.empty().n == 0
+
+
+def test_material_is_a_record_of_the_current_columns():
+    p = numbered(5)
+    m = p.material
+    assert isinstance(m, MaterialState) and m._fields == MATERIAL_COLUMNS
+    assert all(getattr(m, name) is getattr(p, name) for name in MATERIAL_COLUMNS)
+    p.take([4, 0])
+    assert p.material.rho is p.rho and p.material.rho.tolist() == [400, 0]
+
+
+def test_take_with_mask_integers_and_negative_indices():
+    p = numbered(6)
+    p.take(np.array([True, False, True, True, False, True]))
+    assert p.id.tolist() == [0, 200, 300, 500]
+    assert p.stress[1].tolist() == list(200.0 + np.arange(6))
+    p.take(np.array([-1, 0]))
+    assert p.id.tolist() == [500, 0] and p.x[0].tolist() == [500, 501, 502]
+    assert all(c.flags.c_contiguous for c in p.columns().values())
+    with pytest.raises(IndexError):
+        p.take([2])
+    with pytest.raises(IndexError):
+        p.take(np.array([True]))
+
+
+def test_take_between_rows():
+    p, other = numbered(5), numbered(4)
+    rows = other.rows(np.array([3, 1, 2]))
+    assert rows.dtype == Particles.row_dtype() and rows["id"].tolist() == [300, 100, 200]
+    p.take(np.array([True, False, False, True, False]), before=rows[:1], after=rows[1:])
+    assert p.id.tolist() == [300, 0, 300, 100, 200]
+    assert p.F[:, 4].tolist() == [304, 4, 304, 104, 204]
+    assert p.body.dtype == np.int32 and p.n == 5
+
+
+def test_append_and_replace_column():
+    p = numbered(2)
+    p.append(numbered(3).columns())
+    assert p.id.tolist() == [0, 100, 0, 100, 200] and p.x.shape == (5, 3)
+    p.replace_column("mass", [1, 2, 3, 4, 5])
+    assert p.mass.dtype == np.float64 and p.mass.tolist() == [1, 2, 3, 4, 5]
+
+
+def test_sizes():
+    per = 8 * (3 + 3 + 1 + 1 + 1 + 6 + 9 + 1 + 1 + 1 + 1 + 1) + 8 + 3 * 4
+    assert Particles.bytes_per_particle() == per == Particles.bytes_per_row()
+    assert Particles.empty(7).nbytes() == 7 * per
+    assert Particles.row_dtype().itemsize >= per
+
+
+def test_old_checkpoints_without_refine_load_as_coarse():
+    columns = Particles.empty(3).columns()
+    del columns["refine"]
+    assert Particles(columns).refine.tolist() == [1, 1, 1]
+    del columns["x"]
+    with pytest.raises(ValueError, match="x"):
+        Particles(columns)
+
+
+def test_an_element_store_shares_the_material_group():
+    e = numbered(3, Elements)
+    assert list(Elements.COLUMNS) == ["nodes", "volume"] + list(MATERIAL_COLUMNS)
+    assert e.nodes.shape == (3, 8) and e.material.F.shape == (3, 9)
+    e.take([2, 1])
+    assert e.material.stress[:, 0].tolist() == [200, 100] and e.nodes[0, 7] == 207
+    assert Elements.bytes_per_row() == 8 * 8 + 8 + 8 * (6 + 9 + 5)
+
+
+def test_column_tables_are_checked():
+    with pytest.raises(ValueError):
+        column_table(["rho"])                               # not in any group
+    with pytest.raises(ValueError):
+        column_table([("rho", np.float64, 1)], groups=[MATERIAL_GROUP])
+    with pytest.raises(ValueError):
+        column_table([("a", np.float64, 1), ("a", np.float64, 1)])
+    with pytest.raises(TypeError):
+        type("Bad", (ColumnStore,), {"COLUMNS": {"n": (np.float64, 1)}})
