@@ -47,8 +47,58 @@ def _combine_shared_planes(world, planes, block, combine):
         combine(view, incoming, out=view)
 
 
+def migrate_store(world, destination, store, check=True):
+    """Send every row of ``store`` (a ColumnStore) to the rank ``destination[p]``, in place.
+
+    Only the rows that leave this rank are packed, into one buffer of whole rows; one
+    Alltoall of counts and one Alltoallv of rows carry them, and the staying rows are
+    kept with ``store.take``. The new order is that of :func:`migrate`: rows by source
+    rank, stable within a source, this rank's staying rows as its own block.
+
+    Parameters
+    ----------
+    world : World
+    destination : int array (n,), every entry a rank (no -1)
+    store : ColumnStore
+    check : bool
+        First agree (one reduction) whether any row moves at all; pass False when the
+        caller already knows some does.
+    """
+    destination = np.asarray(destination, np.int64)
+    if check and world.sum(int(np.count_nonzero(destination != world.rank))) == 0:
+        return
+    leaving = np.flatnonzero(destination != world.rank)
+    leaving = leaving[np.argsort(destination[leaving], kind="stable")]
+    send_counts = np.bincount(destination[leaving], minlength=world.size).astype(np.int64)
+    recv_counts = np.empty_like(send_counts)
+    world.raw.Alltoall(send_counts, recv_counts)
+    received = _alltoallv_rows(world, store.rows(leaving), send_counts, recv_counts)
+    lower = int(recv_counts[:world.rank].sum())
+    store.take(destination == world.rank, before=received[:lower], after=received[lower:])
+
+
+def _alltoallv_rows(world, rows, send_counts, recv_counts):
+    """Alltoallv of a structured array, counted in whole rows (an MPI type of one row,
+    so byte counts never overflow an int)."""
+    recv = np.empty(int(recv_counts.sum()), rows.dtype)
+    row = _mpi().BYTE.Create_contiguous(rows.dtype.itemsize).Commit()
+    try:
+        world.raw.Alltoallv([rows.view(np.uint8), (send_counts, _offsets(send_counts)), row],
+                            [recv.view(np.uint8), (recv_counts, _offsets(recv_counts)), row])
+    finally:
+        row.Free()
+    return recv
+
+
+def _offsets(counts):
+    return np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+
+
 def migrate(world, destination, columns, check=True, replace=None):
     """Send every particle to the rank ``destination[p]`` with one Alltoallv per column.
+
+    Superseded by :func:`migrate_store` (one Alltoallv for all columns, only the leaving
+    rows packed); kept until the solver's call sites switch, then to be deleted.
 
     Parameters
     ----------
@@ -89,8 +139,7 @@ def _alltoallv(world, sendbuf, send_counts, recv_counts):
     width = int(np.prod(sendbuf.shape[1:], dtype=np.int64))
     recvbuf = np.empty((int(recv_counts.sum()),) + sendbuf.shape[1:], dtype=sendbuf.dtype)
     sc, rc = send_counts * width, recv_counts * width
-    sd = np.concatenate([[0], np.cumsum(sc)[:-1]])
-    rd = np.concatenate([[0], np.cumsum(rc)[:-1]])
+    sd, rd = _offsets(sc), _offsets(rc)
     world.raw.Alltoallv([np.ascontiguousarray(sendbuf).reshape(-1), (sc, sd)],
                         [recvbuf.reshape(-1), (rc, rd)])
     return recvbuf
