@@ -19,7 +19,7 @@ OUTPUT_FILES = ("particles.h5", "particles.xdmf", "history.csv", "summary.json")
 
 def run_case(world, args):
     """Run the case of ``args`` on ``world``; returns the summary.json path."""
-    case, case_text = load_checked_case(args.case, args.overrides)
+    config, case_text = load_checked_case(args.case, args.overrides)
     out = args.out or os.path.join("results", _stem(args.case))
     prepare_output(world, out, args.force, args.restart)
     from .kernels.warmup import warm_up
@@ -28,23 +28,24 @@ def run_case(world, args):
     return_freed_memory_to_os()
     compile_s = world.max(warm_up())
     baseline = current_rss_bytes()
-    sim, restart = build_simulation(world, case, args, out)
+    sim, restart = build_simulation(world, config, args, out)
     runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart)
     runner.run(compile_s=compile_s, baseline_rss=baseline)
     return os.path.join(out, "summary.json")
 
 
 def load_checked_case(path, overrides):
-    from .case import CaseError, load_case
+    """The case's CaseConfig and its text (with the overrides), or InputError."""
+    from .case import CaseError, load_config
     try:
-        case = load_case(path, overrides)
+        config = load_config(path, overrides)
     except CaseError as err:
         raise InputError(err.problems) from None
     with open(path, encoding="utf-8") as f:
         text = f.read()
     if overrides:
         text += "\n# --set " + " --set ".join(overrides) + "\n"
-    return case, text
+    return config, text
 
 
 def prepare_output(world, out, force, restart):
@@ -79,19 +80,19 @@ def _check_output(out, force, restart):
     return None
 
 
-def build_simulation(world, case, args, out):
+def build_simulation(world, config, args, out):
     from .case import fill_body
     from .solver.simulation import Simulation
     if args.restart:
         scalars, columns = read_checkpoint(world, out)
-        end = float(case["time"]["end"])
+        end = float(config.time.end)
         if scalars["time"] > end * (1 + 1e-12):
             raise InputError([f"time.end: {end:g} is before the checkpoint's time "
                               f"{scalars['time']:g}; --set a later time.end to continue"])
-        return Simulation.from_checkpoint(world, case, scalars, columns), scalars
+        return Simulation.from_checkpoint(world, config, scalars, columns), scalars
     try:
-        sim = Simulation.from_case(world, case, os.path.dirname(os.path.abspath(args.case)),
-                                   fill_body)
+        sim = Simulation.from_config(world, config,
+                                     os.path.dirname(os.path.abspath(args.case)), fill_body)
     except SetupError as err:
         raise InputError(err.problems) from None
     return sim, None

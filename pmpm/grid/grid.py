@@ -24,11 +24,12 @@ class CoarseGrid:
                                  dtype=np.int64)
 
     @classmethod
-    def from_case(cls, grid):
-        origin = np.asarray(grid["min"], dtype=np.float64)
-        extent = np.asarray(grid["max"], dtype=np.float64) - origin
-        n_cells = np.rint(extent / grid["cell"]).astype(np.int64)
-        return cls(origin, grid["cell"], n_cells, grid.get("boundary", {}))
+    def from_config(cls, grid):
+        """From a ``pmpm.case.GridConfig``."""
+        origin = np.asarray(grid.min, dtype=np.float64)
+        extent = np.asarray(grid.max, dtype=np.float64) - origin
+        n_cells = np.rint(extent / grid.cell).astype(np.int64)
+        return cls(origin, grid.cell, n_cells, grid.boundary)
 
     @property
     def upper(self):

@@ -25,12 +25,13 @@ class Window:
         self.residual = np.zeros(3)
 
     @classmethod
-    def from_case(cls, window, grid, body_names):
+    def from_config(cls, window, grid, body_names):
+        """From a ``pmpm.case.WindowConfig`` on the CoarseGrid ``grid``."""
         origin, h = np.asarray(grid.origin), grid.h
-        lo = np.rint((np.asarray(window["min"]) - origin) / h).astype(np.int64)
-        hi = np.rint((np.asarray(window["max"]) - origin) / h).astype(np.int64)
-        follow = body_names.index(window["follow"]) if "follow" in window else -1
-        return cls(lo, hi, window["ratio"], follow)
+        lo = np.rint((np.asarray(window.min) - origin) / h).astype(np.int64)
+        hi = np.rint((np.asarray(window.max) - origin) / h).astype(np.int64)
+        follow = body_names.index(window.follow) if window.follow is not None else -1
+        return cls(lo, hi, window.ratio, follow)
 
     def move(self, displacement, h, n_cells):
         """Add the followed body's centroid displacement; move by the whole coarse cells

@@ -7,15 +7,15 @@ from ..particles.store import IDENTITY9, empty_column
 
 
 class BodyTable:
-    """Per-body arrays the kernels index by ``particles.body``."""
+    """Per-body arrays the kernels index by ``particles.body``, from a CaseConfig."""
 
-    def __init__(self, case):
-        bodies = case["bodies"]
-        self.names = [b["name"] for b in bodies]
+    def __init__(self, config):
+        bodies = config.bodies
+        self.names = [b.name for b in bodies]
         self.codes = np.zeros(len(bodies), np.int64)
         self.params = np.zeros((len(bodies), layout.N_SLOTS))
         for i, body in enumerate(bodies):
-            self.codes[i], self.params[i] = catalog.pack(case["materials"][body["material"]])
+            self.codes[i], self.params[i] = catalog.pack(config.materials[body.material])
         self.rigid = (self.codes == layout.RIGID)
 
     def initial_wave_speed(self, body_index):
@@ -27,21 +27,22 @@ class BodyTable:
         return max(speed, prm[layout.EOS_C0])
 
 
-def fill_positions(case, fill_body, case_dir):
+def fill_positions(config, fill_body, case_dir):
     """Positions and volumes of every body's particles (the same on every rank), as a
     list of (positions, volumes) per body. Only these few bytes per particle are held for
     all particles; the full columns are built for a rank's own particles only."""
+    case = config.case
     return [fill_body(body, case["grid"], case_dir) for body in case["bodies"]]
 
 
-def build_particles(case, table, filled, keep):
+def build_particles(config, table, filled, keep):
     """The particles of every body selected by ``keep`` (bool mask over the concatenated
     fill); global ids are the fill order, so they agree on every rank count."""
     parts, offset = [], 0
     for index, (positions, volumes) in enumerate(filled):
         mine = keep[offset:offset + len(volumes)]
-        cols = _body_columns(index, case["bodies"][index], table, positions[mine],
-                             volumes[mine], case["grid"]["cell"])
+        cols = _body_columns(index, config.bodies[index], table, positions[mine],
+                             volumes[mine], config.grid.cell)
         cols["id"][:] = offset + np.flatnonzero(mine)
         parts.append(cols)
         offset += len(volumes)
@@ -56,7 +57,7 @@ def _body_columns(index, body, table, positions, volumes, cell):
     cols = {name: empty_column(name, n) for name in COLUMNS}
     prm = table.params[index]
     cols["x"][:] = positions
-    cols["v"][:] = np.asarray(body.get("velocity", [0, 0, 0]), dtype=np.float64)
+    cols["v"][:] = np.asarray(body.velocity, dtype=np.float64)
     cols["vol0"][:] = volumes
     cols["rho"][:] = prm[layout.RHO0]
     cols["mass"][:] = prm[layout.RHO0] * volumes
@@ -64,7 +65,7 @@ def _body_columns(index, body, table, positions, volumes, cell):
     cols["temp"][:] = prm[layout.T_ROOM]
     cols["body"][:] = index
     cols["load"][:] = -1
-    cols["refine"][:] = refinement(volumes, cell / body.get("particles_per_cell", 2))
+    cols["refine"][:] = refinement(volumes, cell / body.particles_per_cell)
     return cols
 
 
@@ -74,19 +75,19 @@ def refinement(volumes, spacing):
     return np.maximum(np.rint(np.cbrt(spacing ** 3 / volumes)), 1).astype(np.int32)
 
 
-def assign_loads(case, particles, count_global):
+def assign_loads(config, particles, count_global):
     """Mark the particles each load acts on; returns problems (key paths) for loads that
     select nothing. ``count_global`` sums a count over ranks."""
     problems = []
-    names = [b["name"] for b in case["bodies"]]
-    for i, load in enumerate(case.get("loads", [])):
-        selected = _in_region(particles, names.index(load["body"]), load["region"])
+    names = [b.name for b in config.bodies]
+    for i, load in enumerate(config.loads):
+        selected = _in_region(particles, names.index(load.body), load.region)
         n_global = count_global(int(selected.sum()))
         if n_global == 0:
-            problems.append(f"loads[{i}].region: selects no particle of body '{load['body']}'")
+            problems.append(f"loads[{i}].region: selects no particle of body '{load.body}'")
             continue
         particles.load[selected] = i
-        if load["type"] == "traction":
+        if load.type == "traction":
             particles.load_scale[selected] = particles.vol0[selected] ** (2.0 / 3.0)
         else:
             particles.load_scale[selected] = 1.0 / n_global
@@ -94,6 +95,6 @@ def assign_loads(case, particles, count_global):
 
 
 def _in_region(particles, body_index, region):
-    lo, hi = np.asarray(region["min"]), np.asarray(region["max"])
+    lo, hi = np.asarray(region.min), np.asarray(region.max)
     inside = np.all((particles.x >= lo) & (particles.x <= hi), axis=1)
     return inside & (particles.body == body_index)

@@ -28,29 +28,28 @@ class ContactRules:
     """
 
     def __init__(self, contact, bodies):
+        """``contact``: a ``pmpm.case.ContactConfig``; ``bodies``: a BodyTable."""
         names = bodies.names
         nb = len(names)
-        self.method = int(contact.get("method", 0))
-        self.skip_separating = self.method == 2 and bool(contact.get("skip_separating"))
+        self.method = contact.method
+        self.skip_separating = self.method == 2 and contact.skip_separating
         if self.method and nb > MAX_BODIES:
             raise ValueError(f"contact: at most {MAX_BODIES} bodies, got {nb}")
-        self.friction = np.full((nb, nb), float(contact.get("friction", 0.0)))
-        self.separation = np.full((nb, nb), _limit(contact.get("separation")))
+        self.friction = np.full((nb, nb), float(contact.friction))
+        self.separation = np.full((nb, nb), _limit(contact.separation))
         self.master = np.full((nb, nb), -1, np.int64)
-        default = contact.get("normal", "average")
+        default = contact.normal
         stiffness = [_stiffness(bodies, b) for b in range(nb)]
         for a in range(nb):
             for b in range(nb):
                 if a != b:
                     self.master[a, b] = _master(default, a, b, names, stiffness)
-        for pair in contact.get("pairs", []):
-            a, b = (names.index(name) for name in pair["bodies"])
-            mu = float(pair.get("friction", contact.get("friction", 0.0)))
-            self.friction[a, b] = self.friction[b, a] = mu
-            if "separation" in pair:                # none here: no check for this pair
-                self.separation[a, b] = self.separation[b, a] = _limit(pair["separation"])
-            rule = pair.get("normal", default)
-            self.master[a, b] = self.master[b, a] = _master(rule, a, b, names, stiffness)
+        for pair in contact.pairs:               # resolved: what a pair leaves out is
+            a, b = (names.index(name) for name in pair.bodies)      # the section's
+            self.friction[a, b] = self.friction[b, a] = float(pair.friction)
+            self.separation[a, b] = self.separation[b, a] = _limit(pair.separation)
+            self.master[a, b] = self.master[b, a] = _master(pair.normal, a, b, names,
+                                                            stiffness)
 
     @property
     def active(self):

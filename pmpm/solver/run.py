@@ -18,9 +18,9 @@ class Schedule:
     """Output times: ``frames`` equal intervals up to ``end`` plus any listed ``times``."""
 
     def __init__(self, output, end):
-        n = max(int(output.get("frames", 10)), 1)
+        n = max(output.frames, 1)
         times = set(np.linspace(0.0, end, n + 1)[1:].tolist())
-        times.update(t for t in output.get("times", []) if 0 < t <= end)
+        times.update(t for t in output.times if 0 < t <= end)
         self.times = sorted(times)
 
     def next_after(self, t, eps):
@@ -32,11 +32,11 @@ class Runner:
 
     def __init__(self, sim, out_dir, case_text, progress=True, restart=None):
         self.sim, self.world, self.out = sim, sim.world, out_dir
-        self.case = sim.case
-        self.end = float(self.case["time"]["end"])
-        self.cfl = float(self.case["time"].get("cfl", 0.5))
-        self.dt_max = self.case["time"].get("dt_max") or np.inf
-        self.output = self.case.get("output", {})
+        self.config = sim.config
+        self.end = float(self.config.time.end)
+        self.cfl = float(self.config.time.cfl)
+        self.dt_max = self.config.time.dt_max or np.inf
+        self.output = self.config.output
         self.schedule = Schedule(self.output, self.end)
         self.case_text = case_text
         self.progress = Progress(self.end, progress and self.world.is_root)
@@ -107,13 +107,13 @@ class Runner:
         sim, step = self.sim, self.sim.step_count
         if step % SORT_EVERY == 0:
             sim.sort_by_cell()
-        decomposition = self.case.get("decomposition", {})
-        if step % int(decomposition.get("check_every", 50)) == 0:
-            sim.rebalance(float(decomposition.get("rebalance_threshold", 0.2)))
+        decomposition = self.config.decomposition
+        if step % decomposition.check_every == 0:
+            sim.rebalance(decomposition.rebalance_threshold)
         at_frame = any(abs(sim.time - t) <= 1e-9 * self.end for t in self.schedule.times)
         if at_frame:
             self.write_frame()
-        if at_frame or step % int(self.output.get("history_every", 10)) == 0:
+        if at_frame or step % self.output.history_every == 0:
             self.write_history_row(dt)
         if self.checkpoint_due(at_frame):
             self.save_checkpoint(dt)
@@ -158,7 +158,7 @@ class Runner:
                              (e["kinetic"], e["internal"], e["total"]), rows)
 
     def checkpoint_due(self, at_frame):
-        every = int(self.output.get("checkpoint_every", 0))
+        every = self.output.checkpoint_every
         return (self.sim.step_count % every == 0) if every > 0 else at_frame
 
     def save_checkpoint(self, dt):
@@ -193,7 +193,7 @@ class Runner:
     def summary(self):
         sim = self.sim
         return {
-            "case": self.case.get("title", ""),
+            "case": self.config.title,
             "ranks": self.world.size,
             "n_particles": {"initial": self.n_initial,
                             "final": self.world.sum(sim.particles.n)},

@@ -21,28 +21,28 @@ class Simulation:
     """Everything one rank needs to step a case: grid, decomposition, body kinds,
     couplings, and the stepper that runs them."""
 
-    def __init__(self, world, case, grid, slabs, particles, bodies, id_base=None):
-        self.world, self.case, self.grid = world, case, grid
+    def __init__(self, world, config, grid, slabs, particles, bodies, id_base=None):
+        self.world, self.config, self.grid = world, config, grid
         self.bodies = bodies
         n_total = max(world.sum(particles.n), 1)
         mean_mass = world.sum(float(particles.mass.sum())) / n_total
         m_tiny = 1e-12 * mean_mass
-        self.windows = make_windows(case, grid, bodies.names)
+        self.windows = make_windows(config.grid, grid, bodies.names)
         self.grids = Hierarchy([Level(grid)] + [Level(grid, w) for w in self.windows], world)
-        self.points = ParticleBodies(particles, bodies, case.get("gravity", [0, 0, 0]))
+        self.points = ParticleBodies(particles, bodies, config.gravity)
         self.kinds = [self.points]
         self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows)
         self.refiner = Refiner(world, grid, self.windows, self.kinds,
                                n_total if id_base is None else id_base)
-        rules = ContactRules(case.get("contact") or {}, bodies)
+        rules = ContactRules(config.contact, bodies)
         couplings = [TiedInterface(world)] if self.windows else []
         if rules.active:
             couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states)))
         self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
-                               make_scheme(case.get("time", {}).get("scheme", "usf")),
+                               make_scheme(config.time.scheme),
                                self.refiner, m_tiny)
         self.decomposition.update_cell_ranges(self.kinds)
-        self.loads = case.get("loads", [])
+        self.loads = config.loads
         self.time, self.step_count = 0.0, 0
 
     @property
@@ -54,31 +54,33 @@ class Simulation:
         return self.decomposition.slabs
 
     @classmethod
-    def from_case(cls, world, case, case_dir, fill_body):
-        grid = CoarseGrid.from_case(case["grid"])
-        bodies = BodyTable(case)
-        filled = fill_positions(case, fill_body, case_dir)
+    def from_config(cls, world, config, case_dir, fill_body):
+        """The initial state of a ``pmpm.case.CaseConfig`` (``case_dir``: where mesh
+        files are looked up)."""
+        grid = CoarseGrid.from_config(config.grid)
+        bodies = BodyTable(config)
+        filled = fill_positions(config, fill_body, case_dir)
         x = np.concatenate([positions for positions, _ in filled])
-        slabs = decompose(world, grid, x, case)
+        slabs = choose_slabs(grid.cell_histograms(x), world.size, config.decomposition.axis)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
         del x
-        particles = build_particles(case, bodies, filled, mine)
-        problems = assign_loads(case, particles, world.sum)
+        particles = build_particles(config, bodies, filled, mine)
+        problems = assign_loads(config, particles, world.sum)
         if problems:
             raise SetupError(problems)
-        return cls(world, case, grid, slabs, particles, bodies)
+        return cls(world, config, grid, slabs, particles, bodies)
 
     @classmethod
-    def from_checkpoint(cls, world, case, scalars, columns):
-        grid = CoarseGrid.from_case(case["grid"])
-        bodies = BodyTable(case)
+    def from_checkpoint(cls, world, config, scalars, columns):
+        grid = CoarseGrid.from_config(config.grid)
+        bodies = BodyTable(config)
         particles = Particles(columns)
         slabs = Slabs(scalars["slab_axis"], scalars["slab_bounds"])
         if len(slabs.bounds) != world.size + 1:
             counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]])
         refined = scalars.get("refine")
-        sim = cls(world, case, grid, slabs, particles, bodies,
+        sim = cls(world, config, grid, slabs, particles, bodies,
                   refined["id_base"] if refined else None)
         if refined:
             sim.refiner.restore(refined)
@@ -142,31 +144,25 @@ class Simulation:
         """Load vector of every load at ``time`` (value times its time function)."""
         vec = np.zeros((max(len(self.loads), 1), 3))
         for i, load in enumerate(self.loads):
-            vec[i] = np.asarray(load["value"], dtype=np.float64) * time_factor(
-                load.get("time_function", {"type": "constant"}), time)
+            vec[i] = np.asarray(load.value, dtype=np.float64) * time_factor(
+                load.time_function, time)
         return vec
 
 
-def make_windows(case, grid, body_names):
+def make_windows(grid_config, grid, body_names):
     """The refined windows of the case. A window of ratio 1 is the coarse grid itself: it
     is accepted (so that a case can switch refinement on with a parameter) and left out,
     so that it changes nothing, contact across its faces included."""
-    return [Window.from_case(w, grid, body_names) for w in case["grid"].get("windows", [])
-            if w["ratio"] > 1]
-
-
-def decompose(world, grid, x, case):
-    """Slabs chosen from the full particle set (every rank holds the same fill)."""
-    settings = case.get("decomposition", {})
-    return choose_slabs(grid.cell_histograms(x), world.size, settings.get("axis", "auto"))
+    return [Window.from_config(w, grid, body_names) for w in grid_config.windows
+            if w.ratio > 1]
 
 
 def time_factor(function, t):
-    kind = function.get("type", "constant")
-    if kind == "constant":
+    """The factor of a ``pmpm.case.TimeFunctionConfig`` at time ``t``."""
+    if function.type == "constant":
         return 1.0
-    if kind == "ramp":
-        return min(t / function["t_rise"], 1.0) if function["t_rise"] > 0 else 1.0
-    if kind == "table":
-        return float(np.interp(t, function["t"], function["f"]))
-    raise ValueError(f"unknown time function '{kind}'")
+    if function.type == "ramp":
+        return min(t / function.t_rise, 1.0) if function.t_rise > 0 else 1.0
+    if function.type == "table":
+        return float(np.interp(t, function.t, function.f))
+    raise ValueError(f"unknown time function '{function.type}'")
