@@ -3,9 +3,10 @@ against the same problem stepped serially on COMM_SELF in the same process."""
 import numpy as np
 import pytest
 
-from pmpm.comm import World, sum_shared_planes, migrate, migrate_store
+from pmpm.comm import World, sum_shared_planes, migrate_store
 from pmpm.comm.slabs import Slabs
 from pmpm.grid import LocalBlock
+from pmpm.case import CaseConfig, validate_case
 from pmpm.particles import Particles
 
 
@@ -38,8 +39,8 @@ def test_migration_carries_every_column():
     p.stress[:] = p.id[:, None] + np.arange(6)
     p.body[:] = p.id % 3
     dest = (p.id % world.size).astype(np.int64)
-    moved = migrate(world, dest, p.columns())
-    q = Particles(moved)
+    migrate_store(world, dest, p)
+    q = p
     assert np.all(q.id % world.size == world.rank)
     assert np.allclose(q.x, q.id[:, None] * np.array([1.0, 2.0, 3.0]))
     assert np.allclose(q.stress, q.id[:, None] + np.arange(6))
@@ -66,19 +67,28 @@ def _destinations(world, p, case, seed):
     return np.full(p.n, world.rank, np.int64)                   # "none": nothing moves
 
 
+def _expected_after_migration(world, p, dest):
+    """What rank ``world.rank`` must hold: the rows every rank sends it, by source rank,
+    in their order on the source (the order the solver's answers depend on)."""
+    sent = world.allgather([{name: column[dest == r] for name, column in p.columns().items()}
+                            for r in range(world.size)])
+    return Particles({name: np.concatenate([sent[source][world.rank][name]
+                                            for source in range(world.size)])
+                      for name in p.columns()})
+
+
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.parametrize("case, sizes", [("random", (500, 300)), ("random", (0, 400)),
                                          ("all_to_last", (200, 100)), ("none", (50, 0))])
-def test_migrate_store_matches_migrate(case, sizes):
-    """One packed Alltoallv gives the same columns in the same order as one per column;
-    a rank may start or end empty."""
+def test_migrate_store_keeps_rows_and_their_order(case, sizes):
+    """One packed Alltoallv gives every rank the rows sent to it, by source rank and in
+    their order on the source; a rank may start or end empty."""
     world = comm_world()
     n = sizes[world.rank % len(sizes)]
     p = _random_store(world, n, seed=len(case))
     dest = _destinations(world, p, case, seed=n)
     before = world.sum(p.n)
-    moved = migrate(world, dest, p.columns())
-    expected = Particles(moved) if moved is not None else Particles(p.columns())
+    expected = _expected_after_migration(world, p, dest)
     migrate_store(world, dest, p)
     assert world.sum(p.n) == before == world.sum(expected.n)
     for name, column in expected.columns().items():
@@ -111,13 +121,15 @@ CASE = {
 
 def _step_all(world, steps=60, case=None):
     from pmpm.solver.simulation import Simulation
-    sim = Simulation.from_case(world, case or CASE, ".", _fill_box)
+    case = {"time": {"end": 1.0}, **(case or CASE)}
+    config = CaseConfig.from_case(validate_case(case, check_geometry=False))
+    sim = Simulation.from_config(world, config, ".", _fill_box)
     dt = 0.4 / sim.initial_speed()
     for k in range(steps):
-        sim.stepper.step(dt)
+        sim.advance(dt)
         if k % 10 == 9:
-            sim.stepper.rebalance(0.01)
-            sim.stepper.sort_by_cell()
+            sim.rebalance(0.01)
+            sim.sort_by_cell()
     return sim.particles
 
 
@@ -146,7 +158,7 @@ def test_distributed_step_with_a_refined_window_equals_serial_step(scheme):
     from mpi4py import MPI
     case = copy.deepcopy(CASE)
     case["grid"]["windows"] = [{"min": [4, 0, 0], "max": [9, 8, 5], "ratio": 2}]
-    case["time"] = {"scheme": scheme}
+    case["time"] = {"end": 1.0, "scheme": scheme}
     world = comm_world()
     mine = _step_all(world, case=case)
     serial = _step_all(World(MPI.COMM_SELF), case=case)

@@ -165,32 +165,41 @@ def _ranged(kind, checks):
 class Number:
     """A finite float satisfying every check."""
     checks: tuple = ()
+    name = "number"
+    expected = "a finite number"
 
     def __call__(self, value, path, problems):
         x = as_number(value)
-        if x is None or not math.isfinite(x):
-            problems.add(path, f"expected a finite number, got {describe(value)}")
+        if x is None or not self.accepts(x):
+            problems.add(path, f"expected {self.expected}, got {describe(value)}")
             return INVALID
-        return _check(float(x), self.checks, path, problems)
+        return _check(self.convert(x), self.checks, path, problems)
+
+    @staticmethod
+    def accepts(x):
+        return math.isfinite(x)
+
+    @staticmethod
+    def convert(x):
+        return float(x)
 
     def kind(self):
-        return _ranged("number", self.checks)
+        return _ranged(self.name, self.checks)
 
 
 @dataclass(frozen=True, eq=False)
-class Integer:
+class Integer(Number):
     """An int (an integral float is accepted) satisfying every check."""
-    checks: tuple = ()
+    name = "int"
+    expected = "a whole number"
 
-    def __call__(self, value, path, problems):
-        x = as_number(value)
-        if x is None or not math.isfinite(x) or float(x) != int(x):
-            problems.add(path, f"expected a whole number, got {describe(value)}")
-            return INVALID
-        return _check(int(x), self.checks, path, problems)
+    @staticmethod
+    def accepts(x):
+        return math.isfinite(x) and float(x) == int(x)
 
-    def kind(self):
-        return _ranged("int", self.checks)
+    @staticmethod
+    def convert(x):
+        return int(x)
 
 
 @dataclass(frozen=True, eq=False)

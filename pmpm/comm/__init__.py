@@ -3,7 +3,6 @@ particle migration. The only package in pmpm that imports mpi4py (lazily, on fir
 so ``import pmpm`` stays cheap)."""
 from .world import World, world
 from .slabs import Slabs
-from .exchange import sum_shared_planes, migrate, migrate_store
+from .exchange import sum_shared_planes, migrate_store
 
-__all__ = ["World", "world", "Slabs", "sum_shared_planes", "migrate",
-           "migrate_store"]
+__all__ = ["World", "world", "Slabs", "sum_shared_planes", "migrate_store"]

@@ -52,8 +52,9 @@ def migrate_store(world, destination, store, check=True):
 
     Only the rows that leave this rank are packed, into one buffer of whole rows; one
     Alltoall of counts and one Alltoallv of rows carry them, and the staying rows are
-    kept with ``store.take``. The new order is that of :func:`migrate`: rows by source
-    rank, stable within a source, this rank's staying rows as its own block.
+    kept with ``store.take``. The new order is: rows by source rank, stable within a
+    source, this rank's staying rows as its own block (the order the answers depend on:
+    scatter sums follow it).
 
     Parameters
     ----------
@@ -92,57 +93,6 @@ def _alltoallv_rows(world, rows, send_counts, recv_counts):
 
 def _offsets(counts):
     return np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-
-
-def migrate(world, destination, columns, check=True, replace=None):
-    """Send every particle to the rank ``destination[p]`` with one Alltoallv per column.
-
-    Superseded by :func:`migrate_store` (one Alltoallv for all columns, only the leaving
-    rows packed); kept until the solver's call sites switch, then to be deleted.
-
-    Parameters
-    ----------
-    world : World
-    destination : int array (n,)
-    columns : dict of name -> array whose first axis is the particle
-    check : bool
-        First agree (one reduction) whether any particle moves at all; pass False when
-        the caller already knows some does.
-    replace : callable(name, array), optional
-        Called with each column as soon as it has arrived (and the column is dropped from
-        ``columns``), so the caller can free the old column before the next one is sent:
-        the extra memory is then one column, not the whole store. Returns None then.
-
-    Returns
-    -------
-    dict or None
-        New columns (particles ordered by source rank, stable within a source), or None
-        when no particle changed rank anywhere (nothing was sent).
-    """
-    if check and world.sum(int(np.count_nonzero(destination != world.rank))) == 0:
-        return None
-    order = np.argsort(destination, kind="stable")
-    send_counts = np.bincount(destination, minlength=world.size).astype(np.int64)
-    recv_counts = np.empty_like(send_counts)
-    world.raw.Alltoall(send_counts, recv_counts)
-    if replace is None:
-        return {name: _alltoallv(world, col[order], send_counts, recv_counts)
-                for name, col in columns.items()}
-    for name in list(columns):
-        column = columns.pop(name)
-        replace(name, _alltoallv(world, column[order], send_counts, recv_counts))
-        del column
-    return None
-
-
-def _alltoallv(world, sendbuf, send_counts, recv_counts):
-    width = int(np.prod(sendbuf.shape[1:], dtype=np.int64))
-    recvbuf = np.empty((int(recv_counts.sum()),) + sendbuf.shape[1:], dtype=sendbuf.dtype)
-    sc, rc = send_counts * width, recv_counts * width
-    sd, rd = _offsets(sc), _offsets(rc)
-    world.raw.Alltoallv([np.ascontiguousarray(sendbuf).reshape(-1), (sc, sd)],
-                        [recvbuf.reshape(-1), (rc, rd)])
-    return recvbuf
 
 
 def _mpi():

@@ -178,35 +178,38 @@ def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block):
     25, slip form), within the node's boundary conditions, unless the two bodies are
     separated there (:func:`_separated`). ``gvel`` is the shared (centre-of-mass, Eq. 7)
     velocity. Writes ``slots.cvel`` and ``slots.cnorm``."""
-    cnodal, cvel, cnorm = slots.cnodal, slots.cvel, slots.cnorm
-    master, separation = rules.master, rules.separation
-    mask = np.zeros(3, np.int64)
-    vec = np.empty(3)
-    rest = np.empty(3)
+    mask, vec, rest = np.zeros(3, np.int64), np.empty(3), np.empty(3)
     for s in range(slots.slot_nodes.shape[0]):
-        n = slots.slot_nodes[s]
-        face_codes_of_node(n, block, mask)
-        for b in range(cnodal.shape[1]):
-            m = cnodal[s, b, 0]
-            cnorm[s, b, 0] = cnorm[s, b, 1] = cnorm[s, b, 2] = 0.0
-            for d in range(3):
-                vec[d] = cnodal[s, b, 1 + d] / m if m > m_tiny else gvel[n, d]
-            constrain(vec, mask)
-            if m > m_tiny:
-                other = _heaviest_other(cnodal, s, b, m_tiny)
-                if other >= 0:
-                    _collinear_normal(cnodal, s, b, other, master, mask, rest, cnorm[s, b])
-                    if method == 2 and not body_rigid[b] and not _separated(
-                            cnodal, s, b, other, cnorm[s, b], separation[b, other]):
-                        approach = 0.0
-                        for d in range(3):
-                            approach += (vec[d] - gvel[n, d]) * cnorm[s, b, d]
-                        if approach > 0.0:
-                            for d in range(3):
-                                vec[d] -= approach * cnorm[s, b, d]
-                            constrain(vec, mask)
-            for d in range(3):
-                cvel[s, b, d] = vec[d]
+        face_codes_of_node(slots.slot_nodes[s], block, mask)
+        for b in range(slots.cnodal.shape[1]):
+            _start_of_body(slots, s, b, gvel, rules, body_rigid[b], method, m_tiny, mask,
+                           vec, rest)
+
+
+@njit(cache=True, inline="always")
+def _start_of_body(slots, s, b, gvel, rules, rigid, method, m_tiny, mask, vec, rest):
+    """:func:`contact_start` for body ``b`` at slot ``s``."""
+    cnodal, cnorm, n = slots.cnodal, slots.cnorm, slots.slot_nodes[s]
+    m = cnodal[s, b, 0]
+    cnorm[s, b, 0] = cnorm[s, b, 1] = cnorm[s, b, 2] = 0.0
+    for d in range(3):
+        vec[d] = cnodal[s, b, 1 + d] / m if m > m_tiny else gvel[n, d]
+    constrain(vec, mask)
+    if m > m_tiny:
+        other = _heaviest_other(cnodal, s, b, m_tiny)
+        if other >= 0:
+            _collinear_normal(cnodal, s, b, other, rules.master, mask, rest, cnorm[s, b])
+            if method == 2 and not rigid and not _separated(
+                    cnodal, s, b, other, cnorm[s, b], rules.separation[b, other]):
+                approach = 0.0
+                for d in range(3):
+                    approach += (vec[d] - gvel[n, d]) * cnorm[s, b, d]
+                if approach > 0.0:
+                    for d in range(3):
+                        vec[d] -= approach * cnorm[s, b, d]
+                    constrain(vec, mask)
+    for d in range(3):
+        slots.cvel[s, b, d] = vec[d]
 
 
 @njit(cache=True)
@@ -224,41 +227,45 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
     correction would do positive work on them (the elastic rings of seed 001 Sec. 5.1
     gained 20-30 % of their energy so). Without it, Eq. 12 alone decides, as in the
     paper. Writes ``slots.cnew``."""
-    cnodal, cvel, cnorm, cforce, cnew = (slots.cnodal, slots.cvel, slots.cnorm, slots.cforce,
-                                         slots.cnew)
-    friction, separation = rules.friction, rules.separation
-    mask = np.zeros(3, np.int64)
-    acc = np.empty(3)
-    tangent = np.empty(3)
+    mask, acc, tangent = np.zeros(3, np.int64), np.empty(3), np.empty(3)
     for s in range(slots.slot_nodes.shape[0]):
-        n = slots.slot_nodes[s]
-        face_codes_of_node(n, block, mask)
-        for b in range(cnodal.shape[1]):
-            m = cnodal[s, b, 0]
-            if m <= m_tiny or body_rigid[b]:
-                for d in range(3):
-                    cnew[s, b, d], cnew[s, b, 3 + d] = gnew[n, d], gnew[n, 3 + d]
-                continue
+        face_codes_of_node(slots.slot_nodes[s], block, mask)
+        for b in range(slots.cnodal.shape[1]):
+            _end_of_body(slots, s, b, gvel, gnew, rules, body_rigid[b], skip_separating,
+                         dt, m_tiny, mask, acc, tangent)
+
+
+@njit(cache=True, inline="always")
+def _end_of_body(slots, s, b, gvel, gnew, rules, rigid, skip_separating, dt, m_tiny, mask,
+                 acc, tangent):
+    """:func:`contact_end` for body ``b`` at slot ``s``."""
+    cnodal, cvel, cnorm, cnew = slots.cnodal, slots.cvel, slots.cnorm, slots.cnew
+    n = slots.slot_nodes[s]
+    m = cnodal[s, b, 0]
+    if m <= m_tiny or rigid:
+        for d in range(3):
+            cnew[s, b, d], cnew[s, b, 3 + d] = gnew[n, d], gnew[n, 3 + d]
+        return
+    for d in range(3):
+        acc[d] = slots.cforce[s, b, d] / m
+    constrain(acc, mask)
+    other = _heaviest_other(cnodal, s, b, m_tiny)
+    if other >= 0 and not _separated(cnodal, s, b, other, cnorm[s, b],
+                                     rules.separation[b, other]):
+        approach = 0.0
+        for d in range(3):
+            approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]
+        before = 0.0               # the approach at the start of the step
+        if skip_separating:
             for d in range(3):
-                acc[d] = cforce[s, b, d] / m
+                before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
+        if approach > 0.0 and before >= 0.0:
+            _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
+                                      rules.friction[b, other], dt, tangent)
             constrain(acc, mask)
-            other = _heaviest_other(cnodal, s, b, m_tiny)
-            if other >= 0 and not _separated(cnodal, s, b, other, cnorm[s, b],
-                                             separation[b, other]):
-                approach = 0.0
-                for d in range(3):
-                    approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]
-                before = 0.0               # the approach at the start of the step
-                if skip_separating:
-                    for d in range(3):
-                        before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
-                if approach > 0.0 and before >= 0.0:
-                    _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
-                                              friction[b, other], dt, tangent)
-                    constrain(acc, mask)
-            for d in range(3):
-                cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
-                cnew[s, b, 3 + d] = acc[d]
+    for d in range(3):
+        cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
+        cnew[s, b, 3 + d] = acc[d]
 
 
 @njit(cache=True, inline="always")

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from ..materials.kernels import update_stress
-from .boundary import constrain, face_codes
+from .boundary import constrain, face_codes_of_node
 from .shape import trilinear
 
 NODAL_COMPONENTS = 8
@@ -48,45 +48,38 @@ def particles_to_grid(pts, rigid, geo, nodal, want):
 def nodal_velocities(nodal, block, m_tiny, gvel):
     """Velocity at the start of the step: momentum / mass, rigid bodies imposing theirs,
     then fixed and slip faces."""
-    shape, strides = block.shape, block.strides
     mask = np.zeros(3, np.int64)
     vec = np.empty(3)
-    for i in range(shape[0]):
-        for j in range(shape[1]):
-            for k in range(shape[2]):
-                n = i * strides[0] + j * strides[1] + k * strides[2]
-                vec[:] = 0.0
-                if nodal[n, 4] > 0.0:
-                    for d in range(3):
-                        vec[d] = nodal[n, 5 + d] / nodal[n, 4]
-                elif nodal[n, 0] > m_tiny:
-                    for d in range(3):
-                        vec[d] = nodal[n, 1 + d] / nodal[n, 0]
-                face_codes(i, j, k, block.lo, block.n_cells, block.boundary, mask)
-                constrain(vec, mask)
-                gvel[n, 0], gvel[n, 1], gvel[n, 2] = vec[0], vec[1], vec[2]
+    for n in range(gvel.shape[0]):
+        vec[:] = 0.0
+        if nodal[n, 4] > 0.0:
+            for d in range(3):
+                vec[d] = nodal[n, 5 + d] / nodal[n, 4]
+        elif nodal[n, 0] > m_tiny:
+            for d in range(3):
+                vec[d] = nodal[n, 1 + d] / nodal[n, 0]
+        face_codes_of_node(n, block, mask)
+        constrain(vec, mask)
+        gvel[n, 0], gvel[n, 1], gvel[n, 2] = vec[0], vec[1], vec[2]
 
 
 @njit(cache=True)
 def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
     """Leap-frog on the nodes (Eq. 14): a = f/m, v_new = v + a dt; rigid nodes keep the
     rigid velocity; fixed and slip faces constrain the acceleration."""
-    shape, strides = block.shape, block.strides
     mask = np.zeros(3, np.int64)
-    acc = np.empty(3)
-    for i in range(shape[0]):
-        for j in range(shape[1]):
-            for k in range(shape[2]):
-                n = i * strides[0] + j * strides[1] + k * strides[2]
-                acc[:] = 0.0
-                if nodal[n, 4] <= 0.0 and nodal[n, 0] > m_tiny:
-                    for d in range(3):
-                        acc[d] = force[n, d] / nodal[n, 0]
-                    face_codes(i, j, k, block.lo, block.n_cells, block.boundary, mask)
-                    constrain(acc, mask)
-                for d in range(3):
-                    gnew[n, d] = gvel[n, d] + acc[d] * dt
-                    gnew[n, 3 + d] = acc[d]
+    acc = np.zeros(3)
+    for n in range(gnew.shape[0]):
+        if nodal[n, 4] <= 0.0 and nodal[n, 0] > m_tiny:
+            for d in range(3):
+                acc[d] = force[n, d] / nodal[n, 0]
+            face_codes_of_node(n, block, mask)
+            constrain(acc, mask)
+        else:
+            acc[0] = acc[1] = acc[2] = 0.0
+        for d in range(3):
+            gnew[n, d] = gvel[n, d] + acc[d] * dt
+            gnew[n, 3 + d] = acc[d]
 
 
 @njit(cache=True)

@@ -109,32 +109,26 @@ def _tie(g, ratio, coarse, occupied, masters, weights):
 def slaves_to_masters(ties, fine, coarse):
     """coarse[m] += phi_m fine[s] for every tie of a TieSet: slave mass, momentum
     (Eqs. 17, 20) or force (Eq. 18) added to the master nodes."""
-    slaves, masters, weights = ties.slaves, ties.masters, ties.weights
     for t in range(ties.count):
-        s = slaves[t]
+        s = ties.slaves[t]
         for k in range(8):
-            m = masters[t, k]
+            m = ties.masters[t, k]
             if m >= 0:
-                w = weights[t, k]
                 for c in range(fine.shape[1]):
-                    coarse[m, c] += w * fine[s, c]
+                    coarse[m, c] += ties.weights[t, k] * fine[s, c]
 
 
 @njit(cache=True)
 def masters_to_slaves(ties, coarse, fine):
     """fine[s] = sum_m phi_m coarse[m]: slave velocity (Eq. 22) or end-of-step velocity
     and acceleration (Eqs. 23-24) interpolated from the master nodes."""
-    slaves, masters, weights = ties.slaves, ties.masters, ties.weights
     for t in range(ties.count):
-        s = slaves[t]
         for c in range(fine.shape[1]):
-            fine[s, c] = 0.0
-        for k in range(8):
-            m = masters[t, k]
-            if m >= 0:
-                w = weights[t, k]
-                for c in range(fine.shape[1]):
-                    fine[s, c] += w * coarse[m, c]
+            total = 0.0
+            for k in range(8):
+                if ties.masters[t, k] >= 0:
+                    total += ties.weights[t, k] * coarse[ties.masters[t, k], c]
+            fine[ties.slaves[t], c] = total
 
 
 @njit(cache=True)

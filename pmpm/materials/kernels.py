@@ -114,16 +114,8 @@ def neo_hookean_stress(f, g, k):
 
 @njit(cache=True, inline="always")
 def neo_hookean_wave_speed(f, g, k, rho):
-    """Largest longitudinal wave speed of the compressible Neo-Hookean solid at ``F``.
-
-    Parameters
-    ----------
-    f : tuple of 9 float
-        Deformation gradient, row-major.
-    g, k : float
-        Shear and bulk modulus.
-    rho : float
-        Current density.
+    """Largest longitudinal wave speed of the compressible Neo-Hookean solid at ``F``
+    (``f``, ``g``, ``k`` as in :func:`neo_hookean_stress`) and current density ``rho``.
 
     Returns
     -------
