@@ -199,3 +199,11 @@ def test_successful_run_writes_the_contract_files(tmp_path, ranks):
 def test_quiet_prints_nothing(tmp_path):
     done = run_ok([BAR, "--out", tmp_path / "out", "--quiet", "--set", "time.end=0.0025"])
     assert done.stdout == ""
+
+
+def test_output_progress_false_silences_the_progress_lines(tmp_path):
+    """The case key output.progress (not only --quiet) turns the progress lines off."""
+    done = run_ok([BAR, "--out", tmp_path / "out", "--set", "time.end=0.0025",
+                   "--set", "output.progress=false"])
+    assert not re.findall(r"^step ", done.stdout, re.M)
+    assert done.stdout.rstrip().endswith("results in " + str(tmp_path / "out"))

@@ -39,7 +39,8 @@ class Runner:
         self.output = self.config.output
         self.schedule = Schedule(self.output, self.end)
         self.case_text = case_text
-        self.progress = Progress(self.end, progress and self.world.is_root)
+        self.progress = Progress(self.end, progress and self.output.progress and
+                                 self.world.is_root)
         self.particle_steps = 0
         self.step_wall = 0.0
         self.frame_index = 0
