@@ -8,7 +8,7 @@ box) so that a shared plane is the same array on both neighbours. Refined window
 """
 import numpy as np
 
-from ..kernels.boundary import BOUNDARY_CODES, FIXED, FREE, SLIP  # noqa: F401 (re-exported)
+from ..kernels.boundary import BOUNDARY_CODES
 FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
 
 
