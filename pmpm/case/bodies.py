@@ -5,9 +5,9 @@ import os
 import re
 
 from .errors import join
-from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, Tagged, at_least,
-                     choice, greater, has_invalid, integer, valid, mapping, number, text,
-                     vector)
+from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, FieldNumber,
+                     FieldVector, Tagged, at_least, choice, greater, has_invalid, integer,
+                     valid, mapping, number, text, vector)
 from .fill import fill_geometry
 from .mesh import MeshReadError
 from .shapes import AXES, nose_length, reference_point
@@ -103,8 +103,13 @@ BODY = mapping({
     "geometry": Field(GEOMETRY, doc="the shape filled with particles"),
     "particles_per_cell": Field(integer(at_least(1)), 2,
                                 doc="particles per cell per direction (2: 8 per cell)"),
-    "velocity": Field(vector(), [0.0, 0.0, 0.0], "mm/ms",
-                      "initial velocity (global axes, not rotated)"),
+    "velocity": Field(FieldVector(), [0.0, 0.0, 0.0], "mm/ms",
+                      "initial velocity (global axes, not rotated); each component a number "
+                      "or an expression of the position x, y, z, e.g. \"2 * sin(pi * x / "
+                      "100)\" (parameters as ${name})"),
+    "temperature": Field(FieldNumber(), OMIT, "K",
+                         "initial temperature, a number or an expression of x, y, z "
+                         "(default: the material's T_room, the Johnson-Cook reference)"),
 })
 
 

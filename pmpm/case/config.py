@@ -236,6 +236,7 @@ class BodyConfig:
     geometry: ReadOnlyDict
     particles_per_cell: int
     velocity: tuple
+    temperature: float | str | None
 
 
 @mirrors(TOP_LEVEL, case="the whole validated case, read-only (``thawed(config.case)`` is "

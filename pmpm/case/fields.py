@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, ClassVar
 
 from .errors import describe, did_you_mean, join, unknown_name
+from .expressions import check_field
 
 
 class Marker:
@@ -200,6 +201,41 @@ class Integer(Number):
     @staticmethod
     def convert(x):
         return int(x)
+
+
+@dataclass(frozen=True, eq=False)
+class FieldNumber:
+    """A finite number, or a string expression of the position x, y, z that is evaluated
+    at every particle when the body is filled (an initial field)."""
+
+    def __call__(self, value, path, problems):
+        if isinstance(value, str):
+            problem = check_field(value)
+            if problem:
+                problems.add(path, problem)
+                return INVALID
+            return value.strip()
+        return Number()(value, path, problems)
+
+    def kind(self):
+        return "number or expression of x, y, z"
+
+
+@dataclass(frozen=True, eq=False)
+class FieldVector:
+    """Three items, each a :class:`FieldNumber`."""
+
+    def __call__(self, value, path, problems):
+        if not isinstance(value, (list, tuple)) or len(value) != 3:
+            problems.add(path, f"expected a list of 3 numbers or expressions of x, y, z, "
+                         f"got {describe(value)}")
+            return INVALID
+        items = [FieldNumber()(v, join(path, i), problems) if v is not INVALID else INVALID
+                 for i, v in enumerate(value)]
+        return INVALID if INVALID in items else items
+
+    def kind(self):
+        return "vector of numbers or expressions of x, y, z"
 
 
 @dataclass(frozen=True, eq=False)

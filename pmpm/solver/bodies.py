@@ -1,9 +1,11 @@
 """Bodies: their materials packed for the kernels, and their initial particles."""
 import numpy as np
 
+from ..case.expressions import ExpressionError, evaluate_field
 from ..materials import catalog, layout
 from ..particles import COLUMNS, Particles
 from ..particles.store import IDENTITY9, empty_column
+from .errors import SetupError
 
 
 class BodyTable:
@@ -57,16 +59,29 @@ def _body_columns(index, body, table, positions, volumes, cell):
     cols = {name: empty_column(name, n) for name in COLUMNS}
     prm = table.params[index]
     cols["x"][:] = positions
-    cols["v"][:] = np.asarray(body.velocity, dtype=np.float64)
+    for d, component in enumerate(body.velocity):
+        cols["v"][:, d] = initial_field(component, positions, f"bodies[{index}].velocity[{d}]")
     cols["vol0"][:] = volumes
     cols["rho"][:] = prm[layout.RHO0]
     cols["mass"][:] = prm[layout.RHO0] * volumes
     cols["F"][:] = IDENTITY9
-    cols["temp"][:] = prm[layout.T_ROOM]
+    temperature = prm[layout.T_ROOM] if body.temperature is None else body.temperature
+    cols["temp"][:] = initial_field(temperature, positions, f"bodies[{index}].temperature")
     cols["body"][:] = index
     cols["load"][:] = -1
     cols["refine"][:] = refinement(volumes, cell / body.particles_per_cell)
     return cols
+
+
+def initial_field(value, positions, key):
+    """A number, or a field expression of x, y, z (``pmpm.case.expressions``) at the
+    particles' ``positions``; a value that is not finite is a SetupError naming ``key``."""
+    if not isinstance(value, str):
+        return value
+    try:
+        return evaluate_field(value, positions)
+    except ExpressionError as error:
+        raise SetupError([f"{key}: {error}"]) from None
 
 
 def refinement(volumes, spacing):

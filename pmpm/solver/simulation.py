@@ -64,7 +64,8 @@ class Simulation:
         slabs = choose_slabs(grid.cell_histograms(x), world.size, config.decomposition.axis)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
         del x
-        particles = build_particles(config, bodies, filled, mine)
+        particles = build_on_every_rank(world, lambda: build_particles(config, bodies, filled,
+                                                                       mine))
         problems = assign_loads(config, particles, world.sum)
         if problems:
             raise SetupError(problems)
@@ -147,6 +148,19 @@ class Simulation:
             vec[i] = np.asarray(load.value, dtype=np.float64) * time_factor(
                 load.time_function, time)
         return vec
+
+
+def build_on_every_rank(world, build):
+    """``build()``, or a SetupError on every rank with every rank's problems when it
+    fails on any (an initial field may be bad only where some rank has particles)."""
+    try:
+        result, problems = build(), []
+    except SetupError as error:
+        result, problems = None, error.problems
+    every = [line for lines in world.allgather(problems) for line in lines]
+    if every:
+        raise SetupError(list(dict.fromkeys(every)))
+    return result
 
 
 def make_windows(grid_config, grid, body_names):
