@@ -9,6 +9,7 @@ import yaml
 
 from pmpm.case import CaseError, load_case
 from pmpm.kernels import contact as kc
+from pmpm.kernels.boundary import fill_face_codes
 from pmpm.kernels.records import ContactSlots, NodeBlock, PairRules
 from pmpm.post import read_frame
 from runhelp import CASES, run_pmpm
@@ -19,13 +20,19 @@ BLOCK_MASS = 1000.0 * 0.02 ** 3                 # each cube of two_blocks.yaml (
 NO_CHECK = np.full((2, 2), np.inf)              # no separation check (seed 001 Sec. 2.2)
 
 
+def node_block(shape, lo, strides, n_cells, bc):
+    faces = np.zeros(int(np.prod(shape)), np.uint8)
+    fill_face_codes(shape, lo, strides, n_cells, bc, faces)
+    return NodeBlock(shape, lo, strides, n_cells, bc, faces)
+
+
 def contact_start(cnodal, slots, gvel, master, separation, rigid, method, m_tiny, shape, lo,
                   strides, n_cells, bc, cvel, cnorm):
     """kc.contact_start with its records built from plain arrays."""
     record = ContactSlots(cnodal, slots, cvel, cnorm, np.zeros((0, 1, 3)), np.zeros((0, 1, 6)))
     rules = PairRules(master, np.zeros(master.shape), separation)
     kc.contact_start(record, gvel, rules, rigid, method, m_tiny,
-                     NodeBlock(shape, lo, strides, n_cells, bc))
+                     node_block(shape, lo, strides, n_cells, bc))
 
 
 def contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, friction, separation, rigid,
@@ -34,7 +41,7 @@ def contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, friction, separa
     record = ContactSlots(cnodal, slots, cvel, cnorm, cforce, cnew)
     rules = PairRules(np.full(friction.shape, -1, np.int64), friction, separation)
     kc.contact_end(record, gvel, gnew, rules, rigid, skip, dt, m_tiny,
-                   NodeBlock(shape, lo, strides, n_cells, bc))
+                   node_block(shape, lo, strides, n_cells, bc))
 
 
 def history(out):

@@ -5,7 +5,7 @@ import os
 import re
 
 from pmpm.kernels import records
-from pmpm.materials.kernels import update_stress
+from pmpm.materials.kernels import update_stress, update_stress_columns
 from pmpm.particles import Particles
 from pmpm.solver.couplings import Coupling
 from pmpm.solver.particle_bodies import ParticleBodies
@@ -40,6 +40,9 @@ def test_the_record_table_lists_each_record_s_fields_in_order():
 
 def test_the_material_kernel_signature_is_the_documented_one():
     documented = re.search(r"c = update_stress\((.*)\)", TEXT).group(1)
+    columns = re.search(r"c = update_stress_columns\((.*)\)", TEXT).group(1)
+    assert [p.strip() for p in columns.split(",")] == \
+        list(inspect.signature(update_stress_columns.py_func).parameters)
     assert [p.strip() for p in documented.split(",")] == \
         list(inspect.signature(update_stress.py_func).parameters)
 

@@ -5,6 +5,7 @@ import pytest
 from pmpm.grid import LocalBlock, FIXED, SLIP
 from pmpm.comm.slabs import Slabs
 from pmpm.kernels import mpm
+from pmpm.kernels.boundary import fill_face_codes
 from pmpm.kernels.records import (BodyMaterials, ExternalLoads, GridGeometry, NodeBlock,
                                   PointState)
 from pmpm.materials.state import MaterialState
@@ -61,8 +62,11 @@ def test_fixed_and_slip_faces_constrain_nodal_velocity():
     nodal[:, 1:4] = [1.0, 2.0, 3.0]
     bc = np.array([FIXED, 0, 0, SLIP, 0, 0], np.int64)      # x- fixed, y+ slip
     gvel = np.zeros((b.n_nodes, 3))
-    mpm.nodal_velocities(nodal, NodeBlock(b.shape, b.lo, b.strides, np.full(3, 2, np.int64), bc),
-                         0.0, gvel)
+    n_cells = np.full(3, 2, np.int64)
+    faces = np.zeros(b.n_nodes, np.uint8)
+    fill_face_codes(b.shape, b.lo, b.strides, n_cells, bc, faces)
+    mpm.nodal_velocities(nodal, NodeBlock(b.shape, b.lo, b.strides, n_cells, bc, faces), 0.0,
+                         gvel)
     planes = gvel.reshape(3, 3, 3, 3)
     assert np.all(planes[0] == 0.0)                            # x = 0 fixed
     assert np.all(planes[1:, 2, :, 1] == 0.0)                  # y = top: no normal velocity
@@ -90,7 +94,7 @@ def test_internal_forces_of_uniform_stress_cancel_inside():
     loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(n, -1, np.int32), np.zeros(n))
     mpm.stress_and_forces(points, mat, bodies, loads, 1e-6, 1.0,
                           GridGeometry(np.zeros(3), 1.0, b.lo, b.strides),
-                          np.zeros((b.n_nodes, 3)), force, None, 0)
+                          np.zeros((b.n_nodes, 3)), force, None, 0, True, True)
     assert np.all(stress == [100.0, 50.0, 20.0, 10.0, 5.0, 2.0])
     assert np.abs(force.sum(axis=0)).max() < 1e-10
     interior = force.reshape(5, 5, 5, 3)[1:-1, 1:-1, 1:-1]

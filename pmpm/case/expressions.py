@@ -57,11 +57,18 @@ def evaluate(text, names):
     return value
 
 
+def _parsed(text):
+    """The expression's syntax tree, or None when it does not parse."""
+    try:
+        return ast.parse(text.strip(), mode="eval")
+    except SyntaxError:
+        return None
+
+
 def check_field(text):
     """Problem with a field expression of x, y, z (a message), or None when it is one."""
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
+    tree = _parsed(text)
+    if tree is None:
         return f"invalid expression {text!r}"
     unknown = sorted(names_in(text) - set(COORDINATES))
     if unknown:
@@ -92,9 +99,8 @@ def evaluate_field(text, x):
 
 def names_in(text):
     """The parameter names an expression refers to (empty if it does not parse)."""
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
+    tree = _parsed(text)
+    if tree is None:
         return set()
     called = {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call)
               and isinstance(n.func, ast.Name)}

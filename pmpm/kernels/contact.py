@@ -23,7 +23,7 @@ use) and ``separation`` (cells; inf: no separation check); see ``pmpm.kernels.re
 import numpy as np
 from numba import njit
 
-from .boundary import constrain, face_codes_of_node
+from .boundary import constrain_coded
 
 CNODAL, CVEL, CNEW = 10, 3, 6
 
@@ -32,14 +32,15 @@ CNODAL, CVEL, CNEW = 10, 3, 6
 def body_masks(pts, geo, mask, want):
     """mask[n] |= 1 << body for the 8 nodes of the cell of every point of ``pts`` (a
     PointState) with ``level[p] == want``; ``geo`` a GridGeometry."""
-    x, origin, inv_h, lo, strides = pts.x, geo.origin, geo.inv_h, geo.lo, geo.strides
+    x, _, _, body, level = pts
+    origin, inv_h, lo, strides = geo
     for p in range(x.shape[0]):
-        if pts.level[p] != want:
+        if level[p] != want:
             continue
         base = 0
         for d in range(3):
             base += (np.int64(np.floor((x[p, d] - origin[d]) * inv_h)) - lo[d]) * strides[d]
-        bit = np.int64(1) << np.int64(pts.body[p])
+        bit = np.int64(1) << np.int64(body[p])
         for a in range(2):
             for b in range(2):
                 for c in range(2):
@@ -70,9 +71,10 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
     """Each body's mass, momentum, mass gradient (Eqs. 27-28, 9) and mass-weighted
     offset from the node (in cells) at the contact nodes, from the points with
     ``level[p] == want``."""
-    x, v, origin, inv_h, lo, strides = pts.x, pts.v, geo.origin, geo.inv_h, geo.lo, geo.strides
+    x, v, mass, body, level = pts
+    origin, inv_h, lo, strides = geo
     for p in range(x.shape[0]):
-        if pts.level[p] != want:
+        if level[p] != want:
             continue
         s0 = (x[p, 0] - origin[0]) * inv_h
         s1 = (x[p, 1] - origin[1]) * inv_h
@@ -81,7 +83,7 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
         r0, r1, r2 = s0 - c0, s1 - c1, s2 - c2
         base = ((np.int64(c0) - lo[0]) * strides[0] + (np.int64(c1) - lo[1]) * strides[1]
                 + (np.int64(c2) - lo[2]) * strides[2])
-        b, m = pts.body[p], pts.mass[p]
+        b, m = body[p], mass[p]
         for a in range(2):
             wx, dx = (r0, inv_h) if a else (1.0 - r0, -inv_h)
             for bb in range(2):
@@ -123,12 +125,12 @@ def _heaviest_other(cnodal, s, b, m_tiny):
 
 
 @njit(cache=True)
-def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
+def _collinear_normal(cnodal, s, b, other, master, code, rest, out):
     """The outward normal of body b at slot s against the heaviest other body there:
     the master body's own normal (Sec. 2.3 choices 1-2), else Eq. 10 generalised to
     (n_b - n_rest)/|n_b - n_rest| with n_rest the normal of all other bodies together.
     The mass gradients first lose their components along the normals of the constrained
-    faces the node lies on (:func:`_constrain`, ``mask``: the node's face codes): a slip
+    faces the node lies on (:func:`pmpm.kernels.boundary.constrain_coded`, ``code``: the node's face codes): a slip
     or symmetry face is a mirror plane, the body's image beyond it has the opposite
     gradient along the face normal, so the surface normal there lies in the face (in a
     one-cell plane-strain slab every node is on such a face). ``rest`` is scratch space."""
@@ -137,7 +139,7 @@ def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
         sign = 1.0 if k == b else -1.0
         for d in range(3):
             out[d] = sign * cnodal[s, k, 4 + d]
-        constrain(out, mask)
+        constrain_coded(out, code)
         _normalise(out)
         return
     rest[0] = rest[1] = rest[2] = 0.0
@@ -145,11 +147,11 @@ def _collinear_normal(cnodal, s, b, other, master, mask, rest, out):
         if c != b:
             for d in range(3):
                 rest[d] += cnodal[s, c, 4 + d]
-    constrain(rest, mask)
+    constrain_coded(rest, code)
     _normalise(rest)
     for d in range(3):
         out[d] = cnodal[s, b, 4 + d]
-    constrain(out, mask)
+    constrain_coded(out, code)
     _normalise(out)
     for d in range(3):
         out[d] -= rest[d]
@@ -178,38 +180,33 @@ def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block):
     25, slip form), within the node's boundary conditions, unless the two bodies are
     separated there (:func:`_separated`). ``gvel`` is the shared (centre-of-mass, Eq. 7)
     velocity. Writes ``slots.cvel`` and ``slots.cnorm``."""
-    mask, vec, rest = np.zeros(3, np.int64), np.empty(3), np.empty(3)
-    for s in range(slots.slot_nodes.shape[0]):
-        face_codes_of_node(slots.slot_nodes[s], block, mask)
-        for b in range(slots.cnodal.shape[1]):
-            _start_of_body(slots, s, b, gvel, rules, body_rigid[b], method, m_tiny, mask,
-                           vec, rest)
-
-
-@njit(cache=True, inline="always")
-def _start_of_body(slots, s, b, gvel, rules, rigid, method, m_tiny, mask, vec, rest):
-    """:func:`contact_start` for body ``b`` at slot ``s``."""
-    cnodal, cnorm, n = slots.cnodal, slots.cnorm, slots.slot_nodes[s]
-    m = cnodal[s, b, 0]
-    cnorm[s, b, 0] = cnorm[s, b, 1] = cnorm[s, b, 2] = 0.0
-    for d in range(3):
-        vec[d] = cnodal[s, b, 1 + d] / m if m > m_tiny else gvel[n, d]
-    constrain(vec, mask)
-    if m > m_tiny:
-        other = _heaviest_other(cnodal, s, b, m_tiny)
-        if other >= 0:
-            _collinear_normal(cnodal, s, b, other, rules.master, mask, rest, cnorm[s, b])
-            if method == 2 and not rigid and not _separated(
-                    cnodal, s, b, other, cnorm[s, b], rules.separation[b, other]):
-                approach = 0.0
-                for d in range(3):
-                    approach += (vec[d] - gvel[n, d]) * cnorm[s, b, d]
-                if approach > 0.0:
+    cnodal, slot_nodes, cvel, cnorm, _, _ = slots
+    master, _, separation = rules
+    faces = block.faces
+    vec, rest = np.empty(3), np.empty(3)
+    for s in range(slot_nodes.shape[0]):
+        n = slot_nodes[s]
+        for b in range(cnodal.shape[1]):
+            m = cnodal[s, b, 0]
+            cnorm[s, b, 0] = cnorm[s, b, 1] = cnorm[s, b, 2] = 0.0
+            for d in range(3):
+                vec[d] = cnodal[s, b, 1 + d] / m if m > m_tiny else gvel[n, d]
+            constrain_coded(vec, faces[n])
+            other = _heaviest_other(cnodal, s, b, m_tiny) if m > m_tiny else -1
+            if other >= 0:
+                _collinear_normal(cnodal, s, b, other, master, faces[n], rest,
+                                  cnorm[s, b])
+                if method == 2 and not body_rigid[b] and not _separated(
+                        cnodal, s, b, other, cnorm[s, b], separation[b, other]):
+                    approach = 0.0
                     for d in range(3):
-                        vec[d] -= approach * cnorm[s, b, d]
-                    constrain(vec, mask)
-    for d in range(3):
-        slots.cvel[s, b, d] = vec[d]
+                        approach += (vec[d] - gvel[n, d]) * cnorm[s, b, d]
+                    if approach > 0.0:
+                        for d in range(3):
+                            vec[d] -= approach * cnorm[s, b, d]
+                        constrain_coded(vec, faces[n])
+            for d in range(3):
+                cvel[s, b, d] = vec[d]
 
 
 @njit(cache=True)
@@ -227,45 +224,36 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
     correction would do positive work on them (the elastic rings of seed 001 Sec. 5.1
     gained 20-30 % of their energy so). Without it, Eq. 12 alone decides, as in the
     paper. Writes ``slots.cnew``."""
-    mask, acc, tangent = np.zeros(3, np.int64), np.empty(3), np.empty(3)
-    for s in range(slots.slot_nodes.shape[0]):
-        face_codes_of_node(slots.slot_nodes[s], block, mask)
-        for b in range(slots.cnodal.shape[1]):
-            _end_of_body(slots, s, b, gvel, gnew, rules, body_rigid[b], skip_separating,
-                         dt, m_tiny, mask, acc, tangent)
-
-
-@njit(cache=True, inline="always")
-def _end_of_body(slots, s, b, gvel, gnew, rules, rigid, skip_separating, dt, m_tiny, mask,
-                 acc, tangent):
-    """:func:`contact_end` for body ``b`` at slot ``s``."""
-    cnodal, cvel, cnorm, cnew = slots.cnodal, slots.cvel, slots.cnorm, slots.cnew
-    n = slots.slot_nodes[s]
-    m = cnodal[s, b, 0]
-    if m <= m_tiny or rigid:
-        for d in range(3):
-            cnew[s, b, d], cnew[s, b, 3 + d] = gnew[n, d], gnew[n, 3 + d]
-        return
-    for d in range(3):
-        acc[d] = slots.cforce[s, b, d] / m
-    constrain(acc, mask)
-    other = _heaviest_other(cnodal, s, b, m_tiny)
-    if other >= 0 and not _separated(cnodal, s, b, other, cnorm[s, b],
-                                     rules.separation[b, other]):
-        approach = 0.0
-        for d in range(3):
-            approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]
-        before = 0.0               # the approach at the start of the step
-        if skip_separating:
+    acc, tangent = np.empty(3), np.empty(3)
+    faces = block.faces
+    cnodal, slot_nodes, cvel, cnorm, cforce, cnew = slots
+    _, friction, separation = rules
+    for s, n in enumerate(slot_nodes):
+        for b in range(cnodal.shape[1]):
+            m = cnodal[s, b, 0]
+            if m <= m_tiny or body_rigid[b]:
+                cnew[s, b, :] = gnew[n, :]
+                continue
             for d in range(3):
-                before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
-        if approach > 0.0 and before >= 0.0:
-            _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
-                                      rules.friction[b, other], dt, tangent)
-            constrain(acc, mask)
-    for d in range(3):
-        cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
-        cnew[s, b, 3 + d] = acc[d]
+                acc[d] = cforce[s, b, d] / m
+            constrain_coded(acc, faces[n])
+            other = _heaviest_other(cnodal, s, b, m_tiny)
+            if other >= 0 and not _separated(cnodal, s, b, other, cnorm[s, b],
+                                             separation[b, other]):
+                approach = 0.0
+                for d in range(3):
+                    approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]
+                before = 0.0               # the approach at the start of the step
+                if skip_separating:
+                    for d in range(3):
+                        before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
+                if approach > 0.0 and before >= 0.0:
+                    _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
+                                              friction[b, other], dt, tangent)
+                    constrain_coded(acc, faces[n])
+            for d in range(3):
+                cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
+                cnew[s, b, 3 + d] = acc[d]
 
 
 @njit(cache=True, inline="always")

@@ -1,6 +1,6 @@
-"""The particle and node loops of one update-stress-first step (seed 000 Eqs. 12-16,
-seed 001 Eqs. 27-34), and the two loops that the modified-update-stress-last order
-(MUSL) uses instead of the combined stress-and-force pass.
+"""The particle and node loops of one explicit step (seed 000 Eqs. 12-16, seed 001 Eqs.
+27-34), for the update-stress-first order (USF: stress update and force scatter in one
+pass) and the modified update-stress-last order (MUSL: the same pass split in two).
 
 Nodal arrays of a local block (flat, see ``pmpm.grid.LocalBlock``):
 ``nodal`` (n_nodes, 8): mass, momentum (3), rigid mass, rigid momentum (3);
@@ -13,12 +13,16 @@ MaterialState, ``bodies`` a BodyMaterials, ``loads`` an ExternalLoads, ``geo`` a
 GridGeometry, ``block`` a NodeBlock, and ``contact`` a ContactView or None (then every
 node carries the one shared field, and the contact code is compiled away). The particle
 loops handle only the points with ``pts.level[p] == want`` (one grid of the hierarchy).
+
+Speed: every kernel unpacks its records into local arrays before its loop. A record's
+field read inside the loop, or a record passed to an inlined helper, costs a reference
+count per particle (measured: the fused stress-and-force pass ran at 40 % of its speed).
 """
 import numpy as np
 from numba import njit
 
-from ..materials.kernels import update_stress
-from .boundary import constrain, face_codes_of_node
+from ..materials.kernels import update_stress_columns
+from .boundary import constrain_coded
 from .shape import trilinear
 
 NODAL_COMPONENTS = 8
@@ -27,15 +31,16 @@ NODAL_COMPONENTS = 8
 @njit(cache=True)
 def particles_to_grid(pts, rigid, geo, nodal, want):
     """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
-    x, v = pts.x, pts.v
+    x, v, mass, body, level = pts
+    origin, inv_h, lo, strides = geo
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     for p in range(x.shape[0]):
-        if pts.level[p] != want:
+        if level[p] != want:
             continue
-        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
-        m = pts.mass[p]
-        slot = 4 if rigid[pts.body[p]] else 0
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        m = mass[p]
+        slot = 4 if rigid[body[p]] else 0
         for k in range(8):
             n, mw = nodes[k], m * w[k]
             nodal[n, slot] += mw
@@ -47,8 +52,8 @@ def particles_to_grid(pts, rigid, geo, nodal, want):
 @njit(cache=True)
 def nodal_velocities(nodal, block, m_tiny, gvel):
     """Velocity at the start of the step: momentum / mass, rigid bodies imposing theirs,
-    then fixed and slip faces."""
-    mask = np.zeros(3, np.int64)
+    then fixed and slip faces (``block.faces``)."""
+    faces = block.faces
     vec = np.empty(3)
     for n in range(gvel.shape[0]):
         vec[:] = 0.0
@@ -58,8 +63,8 @@ def nodal_velocities(nodal, block, m_tiny, gvel):
         elif nodal[n, 0] > m_tiny:
             for d in range(3):
                 vec[d] = nodal[n, 1 + d] / nodal[n, 0]
-        face_codes_of_node(n, block, mask)
-        constrain(vec, mask)
+        if faces[n]:
+            constrain_coded(vec, faces[n])
         gvel[n, 0], gvel[n, 1], gvel[n, 2] = vec[0], vec[1], vec[2]
 
 
@@ -67,14 +72,14 @@ def nodal_velocities(nodal, block, m_tiny, gvel):
 def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
     """Leap-frog on the nodes (Eq. 14): a = f/m, v_new = v + a dt; rigid nodes keep the
     rigid velocity; fixed and slip faces constrain the acceleration."""
-    mask = np.zeros(3, np.int64)
+    faces = block.faces
     acc = np.zeros(3)
     for n in range(gnew.shape[0]):
         if nodal[n, 4] <= 0.0 and nodal[n, 0] > m_tiny:
             for d in range(3):
                 acc[d] = force[n, d] / nodal[n, 0]
-            face_codes_of_node(n, block, mask)
-            constrain(acc, mask)
+            if faces[n]:
+                constrain_coded(acc, faces[n])
         else:
             acc[0] = acc[1] = acc[2] = 0.0
         for d in range(3):
@@ -88,23 +93,28 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want):
     accelerations (Eq. 16); rigid particles move with their own velocity. At contact
     nodes a particle reads its own body's field ``cnew`` (seed 001 Eqs. 33-34). Returns
     the index of the first particle whose new position is not finite, else -1."""
-    x, v, body = pts.x, pts.v, pts.body
+    x, v, _, body, level = pts
+    origin, inv_h, lo, strides = geo
+    if contact is not None:
+        slot_of, cnew = contact.slot_of, contact.cnew
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     bad = -1
     for p in range(x.shape[0]):
-        if pts.level[p] != want:
+        if level[p] != want:
             continue
         if rigid[body[p]]:
             for d in range(3):
                 x[p, d] += dt * v[p, d]
             continue
-        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
         dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
         b = body[p]
         for k in range(8):
             n, wk = nodes[k], w[k]
-            s = contact.slot_of[n] if contact is not None else -1
+            s = -1
+            if contact is not None:
+                s = slot_of[n]
             if s < 0:
                 dx0 += wk * gnew[n, 0]
                 dx1 += wk * gnew[n, 1]
@@ -113,7 +123,6 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want):
                 dv1 += wk * gnew[n, 4]
                 dv2 += wk * gnew[n, 5]
             elif contact is not None:
-                cnew = contact.cnew
                 dx0 += wk * cnew[s, b, 0]
                 dx1 += wk * cnew[s, b, 1]
                 dx2 += wk * cnew[s, b, 2]
@@ -132,161 +141,93 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want):
 
 
 @njit(cache=True)
-def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact, want):
-    """Update every particle's stress from the nodal velocities (Eq. 29 and the material
-    kernel), then scatter its internal and external force (Eqs. 31-32) in the same pass.
-    At contact nodes a particle sees its own body's velocity ``cvel`` and its force also
-    goes to its body's ``cforce``. ``h`` is the level's cell size.
+def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact, want,
+                      stresses, forces):
+    """The particle pass of the step: with ``stresses``, update every particle's stress
+    from the nodal velocities ``gvel`` (Eq. 29 and the material kernel); with ``forces``,
+    scatter its internal and external force (Eqs. 31-32) to ``force``. USF does both in
+    one pass; MUSL scatters the forces of the start of the step (``stresses`` False), and
+    after the particles move updates the stresses from the velocities mapped back to the
+    grid (``forces`` False). At contact nodes a particle sees its own body's velocity
+    ``cvel`` and its force also goes to its body's ``cforce``. ``h`` is the level's cell
+    size.
 
     Returns
     -------
-    (speed, bad): the largest wave speed plus particle speed (for the CFL step), and the
-    index of the first particle whose constitutive update failed (-1 if none).
+    (speed, bad): the largest wave speed plus particle speed (for the CFL step; 0 without
+    ``stresses``), and the index of the first particle whose constitutive update failed
+    (-1 if none).
     """
-    x, v, body = pts.x, pts.v, pts.body
+    x, v, mass, body, level = pts
+    stress, F, rho, eps_p, e_int, temp, q = mat
+    codes, params, rigid = bodies
+    gravity, load_vec, load, load_scale = loads
+    origin, inv_h, lo, strides = geo
+    if contact is not None:
+        slot_of, cvel, cforce = contact.slot_of, contact.cvel, contact.cforce
     nodes = np.empty(8, np.int64)
     w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     slots = np.full(8, -1, np.int64)
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     for p in range(x.shape[0]):
-        if pts.level[p] != want:
+        if level[p] != want:
             continue
         b = body[p]
-        if bodies.rigid[b]:        # moves with its own velocity, which limits the step too
-            fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
+        if rigid[b]:               # moves with its own velocity, which limits the step too
+            if stresses:
+                fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
             continue
-        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
-        Lg[:, :] = 0.0          # L_ij = sum_I v_Ii dN_I/dx_j, written out: as an inlined
-        for k in range(8):      # call it costs 7 % of the step in reference counting
-            n = nodes[k]        # (every use of ``contact`` sits under a test of None, so
-            s = -1              # that Numba compiles it away when there is no contact)
+        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        if contact is not None:     # every use of ``contact`` sits under a test of None,
+            for k in range(8):      # so that Numba compiles it away without contact
+                slots[k] = slot_of[nodes[k]]
+        if stresses:
+            Lg[:, :] = 0.0          # L_ij = sum_I v_Ii dN_I/dx_j, written out: as an
+            for k in range(8):      # inlined call it costs 7 % of the step in reference
+                n, s = nodes[k], slots[k]       # counting
+                if s < 0:
+                    for i in range(3):
+                        vi = gvel[n, i]
+                        Lg[i, 0] += vi * gx[k]
+                        Lg[i, 1] += vi * gy[k]
+                        Lg[i, 2] += vi * gz[k]
+                elif contact is not None:
+                    for i in range(3):
+                        vi = cvel[s, b, i]
+                        Lg[i, 0] += vi * gx[k]
+                        Lg[i, 1] += vi * gy[k]
+                        Lg[i, 2] += vi * gz[k]
+            c = update_stress_columns(p, codes[b], params[b], dt, h, Lg, stress, F, rho,
+                                      eps_p, e_int, temp, q)
+            if c < 0.0 and bad < 0:
+                bad = p
+            fastest = max(fastest, c + np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
+        if not forces:
+            continue
+        vol = mass[p] / rho[p]
+        sxx, syy, szz = stress[p, 0] - q[p], stress[p, 1] - q[p], stress[p, 2] - q[p]
+        sxy, syz, szx = stress[p, 3], stress[p, 4], stress[p, 5]
+        ex, ey, ez = mass[p] * gravity[0], mass[p] * gravity[1], mass[p] * gravity[2]
+        li, ls = load[p], load_scale[p]
+        if li >= 0:
+            ex += ls * load_vec[li, 0]
+            ey += ls * load_vec[li, 1]
+            ez += ls * load_vec[li, 2]
+        for k in range(8):
+            n = nodes[k]
+            f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
+            f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
+            f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+            force[n, 0] += f0
+            force[n, 1] += f1
+            force[n, 2] += f2
             if contact is not None:
-                s = slots[k] = contact.slot_of[n]
-            if s < 0:
-                for i in range(3):
-                    vi = gvel[n, i]
-                    Lg[i, 0] += vi * gx[k]
-                    Lg[i, 1] += vi * gy[k]
-                    Lg[i, 2] += vi * gz[k]
-            elif contact is not None:
-                for i in range(3):
-                    vi = contact.cvel[s, b, i]
-                    Lg[i, 0] += vi * gx[k]
-                    Lg[i, 1] += vi * gy[k]
-                    Lg[i, 2] += vi * gz[k]
-        c = update_stress(p, bodies.codes[b], bodies.params[b], dt, h, Lg, mat)
-        if c < 0.0 and bad < 0:
-            bad = p
-        speed = c + np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2)
-        fastest = max(fastest, speed)
-        _scatter_particle_force(p, pts, mat, loads, nodes, w, gx, gy, gz, force, contact,
-                                slots)
+                if slots[k] >= 0:
+                    cforce[slots[k], b, 0] += f0
+                    cforce[slots[k], b, 1] += f1
+                    cforce[slots[k], b, 2] += f2
     return fastest, bad
-
-
-@njit(cache=True, inline="always")
-def _scatter_particle_force(p, pts, mat, loads, nodes, w, gx, gy, gz, force, contact,
-                            slots):
-    """Internal force -vol sigma.grad N and external force N (m g + load) of particle
-    ``p`` to its 8 nodes (Eqs. 31-32), and at contact nodes (``slots[k] >= 0``) to its
-    body's ``cforce`` too."""
-    q = mat.q[p]
-    mass = pts.mass[p]
-    vol = mass / mat.rho[p]
-    sxx, syy, szz = mat.stress[p, 0] - q, mat.stress[p, 1] - q, mat.stress[p, 2] - q
-    sxy, syz, szx = mat.stress[p, 3], mat.stress[p, 4], mat.stress[p, 5]
-    g = loads.gravity
-    ex, ey, ez = mass * g[0], mass * g[1], mass * g[2]
-    li, ls = loads.index[p], loads.scale[p]
-    if li >= 0:
-        ex += ls * loads.vectors[li, 0]
-        ey += ls * loads.vectors[li, 1]
-        ez += ls * loads.vectors[li, 2]
-    b = pts.body[p]
-    for k in range(8):
-        n = nodes[k]
-        f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
-        f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
-        f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
-        force[n, 0] += f0
-        force[n, 1] += f1
-        force[n, 2] += f2
-        if contact is not None:
-            s = slots[k]
-            if s >= 0:
-                contact.cforce[s, b, 0] += f0
-                contact.cforce[s, b, 1] += f1
-                contact.cforce[s, b, 2] += f2
-
-
-# -- modified update stress last (MUSL) ------------------------------------------------
-# MUSL splits the pass above in two: the nodal forces from the stresses of the start of the
-# step, then, after the particle velocities are updated and mapped back to the grid, the
-# stress update from those velocities.
-
-@njit(cache=True, inline="always")
-def _velocity_gradient(nodes, gx, gy, gz, gvel, contact, b, Lg):
-    """L_ij = sum_I v_Ii dN_I/dx_j, a particle of body ``b`` reading its own body's
-    velocity at contact nodes."""
-    Lg[:, :] = 0.0
-    for k in range(8):
-        n = nodes[k]
-        s = contact.slot_of[n] if contact is not None else -1
-        for i in range(3):
-            vi = gvel[n, i]
-            if contact is not None:
-                if s >= 0:
-                    vi = contact.cvel[s, b, i]
-            Lg[i, 0] += vi * gx[k]
-            Lg[i, 1] += vi * gy[k]
-            Lg[i, 2] += vi * gz[k]
-
-
-@njit(cache=True)
-def update_stresses(pts, mat, bodies, dt, h, geo, gvel, contact, want):
-    """MUSL's stress update from the nodal velocities ``gvel`` mapped back from the
-    updated particle velocities at the particles' start-of-step positions. Returns
-    (speed, bad) as :func:`stress_and_forces`."""
-    x, v = pts.x, pts.v
-    nodes = np.empty(8, np.int64)
-    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
-    Lg = np.empty((3, 3))
-    fastest, bad = 0.0, -1
-    for p in range(x.shape[0]):
-        if pts.level[p] != want:
-            continue
-        b = pts.body[p]
-        speed = np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2)
-        if bodies.rigid[b]:
-            fastest = max(fastest, speed)
-            continue
-        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
-        _velocity_gradient(nodes, gx, gy, gz, gvel, contact, b, Lg)
-        c = update_stress(p, bodies.codes[b], bodies.params[b], dt, h, Lg, mat)
-        if c < 0.0 and bad < 0:
-            bad = p
-        fastest = max(fastest, c + speed)
-    return fastest, bad
-
-
-@njit(cache=True)
-def scatter_forces(pts, mat, rigid, loads, geo, force, contact, want):
-    """MUSL's nodal forces (Eqs. 31-32) from the particles' current stresses; at contact
-    nodes a particle's force also goes to its body's ``cforce``."""
-    x = pts.x
-    nodes = np.empty(8, np.int64)
-    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
-    slots = np.full(8, -1, np.int64)
-    for p in range(x.shape[0]):
-        if pts.level[p] != want or rigid[pts.body[p]]:
-            continue
-        trilinear(x, p, geo.origin, geo.inv_h, geo.lo, geo.strides, nodes, w, gx, gy, gz)
-        if contact is not None:
-            for k in range(8):
-                slots[k] = contact.slot_of[nodes[k]]
-        _scatter_particle_force(p, pts, mat, loads, nodes, w, gx, gy, gz, force, contact,
-                                slots)
 
 
 @njit(cache=True)

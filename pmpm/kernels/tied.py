@@ -57,6 +57,7 @@ def find_ties(block, face_lo, face_hi, ratio, coarse, occupied, ties):
     the coarse NodeBlock. Fills the first rows of ``ties`` (a TieSet's ``slaves``,
     ``masters``, ``weights``) and returns how many."""
     shape, lo, strides = block.shape, block.lo, block.strides
+    c_shape, c_lo, c_strides = coarse.shape, coarse.lo, coarse.strides
     slaves, masters, weights = ties.slaves, ties.masters, ties.weights
     count = 0
     g = np.empty(3, np.int64)
@@ -70,16 +71,17 @@ def find_ties(block, face_lo, face_hi, ratio, coarse, occupied, ties):
                         on_face = True
                 if not on_face:
                     continue
-                if _tie(g, ratio, coarse, occupied, masters[count], weights[count]):
+                if _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters[count],
+                        weights[count]):
                     slaves[count] = i * strides[0] + j * strides[1] + k * strides[2]
                     count += 1
     return count
 
 
 @njit(cache=True)
-def _tie(g, ratio, coarse, occupied, masters, weights):
-    """Master nodes and weights of the slave at level node ``g``; False if not tied."""
-    c_shape, c_lo, c_strides = coarse.shape, coarse.lo, coarse.strides
+def _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters, weights):
+    """Master nodes and weights of the slave at level node ``g`` of a window over the
+    coarse block (``c_shape``, ``c_lo``, ``c_strides``); False if not tied."""
     cell = np.empty(3, np.int64)
     frac = np.empty(3)
     for d in range(3):
@@ -109,30 +111,33 @@ def _tie(g, ratio, coarse, occupied, masters, weights):
 def slaves_to_masters(ties, fine, coarse):
     """coarse[m] += phi_m fine[s] for every tie of a TieSet: slave mass, momentum
     (Eqs. 17, 20) or force (Eq. 18) added to the master nodes."""
-    for t in range(ties.count):
-        s = ties.slaves[t]
+    slaves, masters, weights, count = ties
+    for t in range(count):
+        s = slaves[t]
         for k in range(8):
-            m = ties.masters[t, k]
+            m = masters[t, k]
             if m >= 0:
                 for c in range(fine.shape[1]):
-                    coarse[m, c] += ties.weights[t, k] * fine[s, c]
+                    coarse[m, c] += weights[t, k] * fine[s, c]
 
 
 @njit(cache=True)
 def masters_to_slaves(ties, coarse, fine):
     """fine[s] = sum_m phi_m coarse[m]: slave velocity (Eq. 22) or end-of-step velocity
     and acceleration (Eqs. 23-24) interpolated from the master nodes."""
-    for t in range(ties.count):
+    slaves, masters, weights, count = ties
+    for t in range(count):
         for c in range(fine.shape[1]):
             total = 0.0
             for k in range(8):
-                if ties.masters[t, k] >= 0:
-                    total += ties.weights[t, k] * coarse[ties.masters[t, k], c]
-            fine[ties.slaves[t], c] = total
+                if masters[t, k] >= 0:
+                    total += weights[t, k] * coarse[masters[t, k], c]
+            fine[slaves[t], c] = total
 
 
 @njit(cache=True)
 def clear_slave_slots(ties, mask):
     """mask[s] = 0 at the tied slaves: they follow their masters, not a contact field."""
-    for t in range(ties.count):
-        mask[ties.slaves[t]] = 0
+    slaves, count = ties.slaves, ties.count
+    for t in range(count):
+        mask[slaves[t]] = 0

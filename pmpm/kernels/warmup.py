@@ -7,7 +7,7 @@ import numpy as np
 
 from ..materials import layout
 from ..materials.state import MaterialState
-from . import contact, mpm, tied
+from . import boundary, contact, mpm, tied
 from .cache import refresh_inlined_caches
 from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, GridGeometry,
                       NodeBlock, PairRules, PointState, TieSet)
@@ -20,7 +20,7 @@ def warm_up():
     lo, strides, shape = np.zeros(3, np.int64), np.array([4, 2, 1], np.int64), np.full(3, 2, np.int64)
     n_cells = np.ones(3, np.int64)
     geo = GridGeometry(np.zeros(3), 1.0, lo, strides)
-    block = NodeBlock(shape, lo, strides, n_cells, np.zeros(6, np.int64))
+    block = NodeBlock(shape, lo, strides, n_cells, np.zeros(6, np.int64), np.zeros(8, np.uint8))
     pts = PointState(np.full((1, 3), 0.5), np.zeros((1, 3)), np.ones(1),
                      np.zeros(1, np.int32), np.zeros(1, np.int32))
     rigid = np.zeros(1, np.bool_)
@@ -38,9 +38,7 @@ def warm_up():
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, block, 0.0, gnew)
     for contact_view in (None, view):
         mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
-                              contact_view, 0)
-        mpm.scatter_forces(pts, mat, rigid, loads, geo, force, contact_view, 0)
-        mpm.update_stresses(pts, mat, bodies, 1e-3, 1.0, geo, gvel, contact_view, 0)
+                              contact_view, 0, True, True)
         mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0)
     x, level = pts.x, pts.level
     mpm.cell_keys(x, geo.origin, 1.0, n_cells)
@@ -48,6 +46,7 @@ def warm_up():
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))
     warm_up_ties(pts, geo, block, nodal)
+    boundary.fill_face_codes(shape, lo, strides, n_cells, block.boundary, block.faces)
     return time.perf_counter() - started
 
 

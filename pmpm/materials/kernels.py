@@ -474,27 +474,33 @@ def update_stress(p, code, prm, dt, h, Lg, mat):
     and written after :func:`material_step`, outside any branch; a failed update writes
     back the values it read.
     """
+    return update_stress_columns(p, code, prm, dt, h, Lg, mat.stress, mat.F, mat.rho,
+                                 mat.eps_p, mat.e_int, mat.temp, mat.q)
+
+
+@njit(cache=True, inline="always")
+def update_stress_columns(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q):
+    """:func:`update_stress` on the material columns themselves (the particle loops
+    unpack the record once, outside the loop)."""
     prm_t = (prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8],
              prm[9], prm[10], prm[11], prm[12], prm[13], prm[14], prm[15], prm[16],
              prm[17], prm[18], prm[19], prm[20], prm[21], prm[22], prm[23])
     lg = (Lg[0, 0], Lg[0, 1], Lg[0, 2], Lg[1, 0], Lg[1, 1], Lg[1, 2],
           Lg[2, 0], Lg[2, 1], Lg[2, 2])
-    stress, F = mat.stress, mat.F
     sig_old = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
                stress[p, 5])
     f_old = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4], F[p, 5], F[p, 6], F[p, 7],
              F[p, 8])
     c, sig, f, rho_new, eps_new, e_new, temp_new, q_new = material_step(
-        code, prm_t, dt, h, lg, sig_old, f_old, mat.rho[p], mat.eps_p[p], mat.e_int[p],
-        mat.temp[p], mat.q[p])
+        code, prm_t, dt, h, lg, sig_old, f_old, rho[p], eps_p[p], e_int[p], temp[p], q[p])
     stress[p, 0], stress[p, 1], stress[p, 2] = sig[0], sig[1], sig[2]
     stress[p, 3], stress[p, 4], stress[p, 5] = sig[3], sig[4], sig[5]
     F[p, 0], F[p, 1], F[p, 2] = f[0], f[1], f[2]
     F[p, 3], F[p, 4], F[p, 5] = f[3], f[4], f[5]
     F[p, 6], F[p, 7], F[p, 8] = f[6], f[7], f[8]
-    mat.rho[p] = rho_new
-    mat.eps_p[p] = eps_new
-    mat.e_int[p] = e_new
-    mat.temp[p] = temp_new
-    mat.q[p] = q_new
+    rho[p] = rho_new
+    eps_p[p] = eps_new
+    e_int[p] = e_new
+    temp[p] = temp_new
+    q[p] = q_new
     return c

@@ -4,6 +4,7 @@ import numpy as np
 
 from ..comm import sum_shared_planes
 from ..kernels import mpm
+from ..kernels.boundary import fill_face_codes
 from ..kernels.records import GridGeometry, NodeBlock
 from .workspace import Workspace
 
@@ -20,12 +21,17 @@ class LevelState:
         self.work = Workspace()
         self.ties = None
         self.block = None
+        self.faces = np.zeros(0, np.uint8)
 
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
         lv = self.level
         self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides)
-        self.nodes = NodeBlock(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary)
+        if len(self.faces) < b.n_nodes:
+            self.faces = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.uint8)
+        faces = self.faces[:b.n_nodes]
+        fill_face_codes(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, faces)
+        self.nodes = NodeBlock(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, faces)
 
 
 class Hierarchy:

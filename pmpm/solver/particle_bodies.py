@@ -81,25 +81,22 @@ class ParticleBodies:
         """USF: stresses from the start-of-step nodal velocities and the nodal forces in one
         pass. Returns the fastest wave plus particle speed, as the speed that gives the
         same Courant number on the coarse grid."""
-        lv = state.level
-        fastest, bad = mpm.stress_and_forces(
-            self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
-            state.geometry, state.gvel, state.force, contact, state.index)
-        self.note_fault(bad, FAILED_UPDATE)
-        return fastest * lv.ratio
+        return self.particle_pass(state, dt, contact, True, True)
 
     def scatter_forces(self, state, contact):
         """MUSL: nodal forces from the stresses of the start of the step (Eqs. 31-32)."""
-        mpm.scatter_forces(self.points(), self.particles.material, self.bodies.rigid,
-                           self.loads(), state.geometry, state.force, contact, state.index)
+        self.particle_pass(state, 0.0, contact, False, True)
 
     def update_stresses(self, state, dt, contact):
         """MUSL: stresses from the nodal velocities mapped back from the updated particle
         velocities. Returns the speed as :meth:`stress_and_forces`."""
+        return self.particle_pass(state, dt, contact, True, False)
+
+    def particle_pass(self, state, dt, contact, stresses, forces):
         lv = state.level
-        fastest, bad = mpm.update_stresses(
-            self.points(), self.particles.material, self.materials, dt, lv.h,
-            state.geometry, state.gvel, contact, state.index)
+        fastest, bad = mpm.stress_and_forces(
+            self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
+            state.geometry, state.gvel, state.force, contact, state.index, stresses, forces)
         self.note_fault(bad, FAILED_UPDATE)
         return fastest * lv.ratio
 
