@@ -119,6 +119,7 @@ class OutputConfig:
     checkpoint_every: int
     progress: bool
     times: tuple
+    energy_warning: float
 
 
 @mirrors(DECOMPOSITION)

@@ -52,6 +52,10 @@ OUTPUT = {
     "times": Field(number_list(0), [], "ms",
                    "extra frame times, each in (0, time.end], written besides the equally "
                    "spaced ones"),
+    "energy_warning": Field(number(at_least(0)), 0.05, "1",
+                            "warn (once) when the energy balance (kinetic + internal + "
+                            "gravitational, less the work of loads) has grown by more than "
+                            "this fraction since the start; 0: never"),
 }
 DECOMPOSITION = {
     "axis": Field(choice(("auto", "x", "y", "z"), "axis"), "auto",

@@ -7,6 +7,7 @@ import numpy as np
 from .. import io
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
+from .energy import EnergyWatch, gravitational_potential, load_power
 from .memory import memory_summary
 from .observe import body_stats, energies
 from .progress import Progress
@@ -41,6 +42,8 @@ class Runner:
         self.case_text = case_text
         self.progress = Progress(self.end, progress and self.output.progress and
                                  self.world.is_root)
+        self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root)
+        self.local_load_work = 0.0
         self.particle_steps = 0
         self.step_wall = 0.0
         self.frame_index = 0
@@ -58,6 +61,9 @@ class Runner:
         self.step_wall = scalars.get("step_wall", 0.0)
         self.wall_before = scalars.get("wall_s", 0.0)
         self.last_checkpoint = scalars["step"]
+        self.watch.restore(scalars.get("energy_watch"))
+        if self.world.is_root:
+            self.local_load_work = self.watch.load_work
 
     # -- run ---------------------------------------------------------------------
     def run(self, compile_s=0.0, baseline_rss=0):
@@ -96,6 +102,8 @@ class Runner:
     def advance(self, dt):
         sim = self.sim
         n = self.world.sum(sim.particles.n)
+        vectors = sim.load_vectors(sim.time + 0.5 * dt)
+        power = load_power(sim.particles, vectors) if self.config.loads else 0.0
         tick = clock.perf_counter()
         try:
             sim.advance(dt)
@@ -103,6 +111,8 @@ class Runner:
             raise SolverError(self.fault_message(err, dt)) from None
         self.step_wall += clock.perf_counter() - tick
         self.particle_steps += n
+        if self.config.loads:          # the loads' work over the step (trapezoidal)
+            self.local_load_work += 0.5 * dt * (power + load_power(sim.particles, vectors))
 
     def after_step(self, dt):
         sim, step = self.sim, self.sim.step_count
@@ -118,7 +128,7 @@ class Runner:
             self.write_history_row(dt)
         if self.checkpoint_due(at_frame):
             self.save_checkpoint(dt)
-        self.progress.update(step, sim.time, dt, self.rate())
+        self.progress.update(step, sim.time, dt, self.rate(), self.watch.growth)
 
     def fault_message(self, err, dt):
         sim = self.sim
@@ -152,6 +162,9 @@ class Runner:
 
     def write_history_row(self, dt):
         e = energies(self.world, self.sim.particles)
+        self.watch.observe(self.sim.time, e, gravitational_potential(
+            self.world, self.sim.particles, self.config.gravity),
+            self.world.sum(self.local_load_work))
         stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)
         if self.history is not None:
             rows = {name: s["centroid"] + s["velocity"] for name, s in stats.items()}
@@ -167,7 +180,8 @@ class Runner:
         scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
                    "frame_index": self.frame_index, "step_wall": self.step_wall,
-                   "wall_s": self.wall(), **sim.restart_state()}
+                   "wall_s": self.wall(), "energy_watch": self.watch.state(),
+                   **sim.restart_state()}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
         self.last_checkpoint = sim.step_count
 
@@ -207,6 +221,7 @@ class Runner:
             "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
             "windows": self.window_summary(),
             "energy": energies(self.world, sim.particles),
+            "energy_balance": self.watch.summary(),
             "memory": memory_summary(self.world, self.baseline_rss, self.n_initial),
             "bodies": self.body_summary(),
         }

@@ -1,0 +1,100 @@
+"""The energy watch: how far the run's energy balance has drifted since the start.
+
+The balance is kinetic + internal energy + gravitational potential (-sum m g.x) less the
+work the loads have done; its growth is measured against the energy the run was given
+(initial kinetic + internal, plus what gravity and the loads supplied). Where nothing else does work (no rigid body, no fixed face
+pushing, no contact with a rigid body), an explicit step that conserves energy keeps it
+constant; growth is numerical energy gained, the usual sign of a step or a feature used
+outside its range."""
+import sys
+
+import numpy as np
+
+CAUSES = ("a time step too large where particles cross cells under USF (lower time.cfl "
+          "or use time.scheme: musl), bulk viscosity heating fed back by a Mie-Grueneisen "
+          "EOS behind strong shocks, contact that keeps pushing after bodies part; rigid "
+          "bodies and fixed faces also do work the balance does not count")
+
+
+class EnergyWatch:
+    """Follows the growth of the energy balance since the start, relative to the energy
+    the run was given: the initial kinetic + internal energy plus the largest energy
+    that gravity and the loads have supplied so far (so that a body at rest that falls
+    or is loaded has a scale too).
+
+    Parameters
+    ----------
+    threshold : float   growth (fraction) above which one warning is printed; 0: never
+    speak : bool   whether this rank prints (rank 0)
+    """
+
+    def __init__(self, threshold, speak, stream=None):
+        self.threshold, self.speak = threshold, speak
+        self.stream = stream or sys.stderr
+        self.start = None                 # (kinetic + internal, potential) at the start
+        self.supplied = 0.0
+        self.growth = 0.0
+        self.largest, self.largest_at = 0.0, 0.0
+        self.load_work = 0.0
+        self.warned = False
+
+    def observe(self, time, energy, potential, load_work):
+        """Take the energies of a history row (``energy``: kinetic, internal, total), the
+        gravitational potential and the work the loads have done so far (all over all
+        ranks); returns the growth since the start."""
+        if self.start is None:
+            self.start = (energy["total"], potential)
+        given, potential0 = self.start
+        self.load_work = load_work
+        external = potential0 - potential + load_work     # the energy supplied so far
+        self.supplied = max(self.supplied, external)
+        drift = energy["total"] - given - external
+        self.growth = drift / max(given + self.supplied, 1e-300)
+        if self.growth > self.largest:
+            self.largest, self.largest_at = self.growth, time
+        if self.threshold > 0 and self.growth > self.threshold and not self.warned:
+            self.warned = True
+            self.warn(time)
+        return self.growth
+
+    def warn(self, time):
+        if self.speak:
+            self.stream.write(
+                f"pmpm: warning: the energy balance has grown {100 * self.growth:.1f} % by "
+                f"t = {time:.6g} (output.energy_warning: {self.threshold:g}); usual causes: "
+                f"{CAUSES}\n")
+            self.stream.flush()
+
+    def summary(self):
+        return {"growth": self.growth, "largest_growth": self.largest,
+                "largest_growth_at": self.largest_at, "threshold": self.threshold,
+                "warned": self.warned}
+
+    def state(self):
+        return {"start": list(self.start) if self.start else None,
+                "supplied": self.supplied, "largest": self.largest,
+                "largest_at": self.largest_at, "load_work": self.load_work,
+                "warned": self.warned}
+
+    def restore(self, state):
+        if state:
+            self.start = tuple(state["start"]) if state["start"] else None
+            self.supplied = state["supplied"]
+            self.largest, self.largest_at = state["largest"], state["largest_at"]
+            self.load_work, self.warned = state["load_work"], state["warned"]
+
+
+def gravitational_potential(world, particles, gravity):
+    """-sum m g.x over all ranks."""
+    local = -float(particles.mass @ (particles.x @ np.asarray(gravity, np.float64)))
+    return world.sum(local)
+
+
+def load_power(particles, load_vectors):
+    """sum over loaded particles of scale * load . v (this rank's part)."""
+    loaded = particles.load >= 0
+    if not loaded.any():
+        return 0.0
+    p = particles
+    forces = p.load_scale[loaded, None] * load_vectors[p.load[loaded]]
+    return float(np.einsum("ij,ij->", forces, p.v[loaded]))
