@@ -107,6 +107,7 @@ class TimeConfig:
     end: float
     cfl: float
     dt_max: float | None
+    pic: float
     scheme: str
 
 

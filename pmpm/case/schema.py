@@ -30,6 +30,11 @@ TIME = {
                  "that is taken"),
     "dt_max": Field(number(greater(0)), None, "ms",
                     "upper limit on the time step (none: no limit)"),
+    "pic": Field(number(at_least(0), at_most(1)), 0.0, "1",
+                 "share of the grid's velocity (PIC) in the particle velocity update; the "
+                 "rest is the FLIP update v + a dt. 0: pure FLIP (no damping); a few per "
+                 "cent damp the noise of particles crossing cells; 1: PIC, which damps "
+                 "strongly"),
     "scheme": Field(choice(("usf", "musl"), "update scheme"), "usf",
                     doc="update order: `usf` updates the stresses first, from the nodal "
                         "velocities of the start of the step (seed 000 Sec. 2, seed 001 "

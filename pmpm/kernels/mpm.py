@@ -88,11 +88,13 @@ def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
 
 
 @njit(cache=True)
-def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want):
+def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
     """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
-    accelerations (Eq. 16); rigid particles move with their own velocity. At contact
-    nodes a particle reads its own body's field ``cnew`` (seed 001 Eqs. 33-34). Returns
-    the index of the first particle whose new position is not finite, else -1."""
+    accelerations (Eq. 16, FLIP); rigid particles move with their own velocity. At contact
+    nodes a particle reads its own body's field ``cnew`` (seed 001 Eqs. 33-34). With
+    ``pic`` > 0 the new velocity is ``(1 - pic)`` times the FLIP one plus ``pic`` times
+    the new nodal velocity at the particle (PIC), which damps. Returns the index of the
+    first particle whose new position is not finite, else -1."""
     x, v, _, body, level = pts
     origin, inv_h, lo, strides = geo
     if contact is not None:
@@ -135,6 +137,10 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want):
         v[p, 0] += dt * dv0
         v[p, 1] += dt * dv1
         v[p, 2] += dt * dv2
+        if pic > 0.0:
+            v[p, 0] = (1.0 - pic) * v[p, 0] + pic * dx0
+            v[p, 1] = (1.0 - pic) * v[p, 1] + pic * dx1
+            v[p, 2] = (1.0 - pic) * v[p, 2] + pic * dx2
         if bad < 0 and not (np.isfinite(x[p, 0]) and np.isfinite(x[p, 1]) and np.isfinite(x[p, 2])):
             bad = p
     return bad

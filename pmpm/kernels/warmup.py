@@ -39,7 +39,7 @@ def warm_up():
     for contact_view in (None, view):
         mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
                               contact_view, 0, True, True)
-        mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0)
+        mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0)
     x, level = pts.x, pts.level
     mpm.cell_keys(x, geo.origin, 1.0, n_cells)
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)

@@ -22,12 +22,14 @@ class ParticleBodies:
     particles : particles.Particles
     bodies : solver.bodies.BodyTable
     gravity : (3,) array
+    pic : float   share of the PIC velocity in the particle velocity update (0: FLIP)
     """
 
     label = "particle"
 
-    def __init__(self, particles, bodies, gravity):
+    def __init__(self, particles, bodies, gravity, pic=0.0):
         self.particles, self.bodies = particles, bodies
+        self.pic = float(pic)
         self.gravity = np.asarray(gravity, dtype=np.float64)
         self.load_vectors = np.zeros((1, 3))
         self.materials = BodyMaterials(bodies.codes, bodies.params, bodies.rigid)
@@ -102,7 +104,7 @@ class ParticleBodies:
 
     def grid_to_points(self, state, dt, contact):
         bad = mpm.grid_to_particles(self.points(), self.bodies.rigid, dt, state.geometry,
-                                    state.gnew, contact, state.index)
+                                    state.gnew, contact, state.index, self.pic)
         self.note_fault(bad, "position is not finite")
 
     # -- MUSL: the stress update runs at the start-of-step positions --------------------

@@ -29,7 +29,7 @@ class Simulation:
         m_tiny = 1e-12 * mean_mass
         self.windows = make_windows(config.grid, grid, bodies.names)
         self.grids = Hierarchy([Level(grid)] + [Level(grid, w) for w in self.windows], world)
-        self.points = ParticleBodies(particles, bodies, config.gravity)
+        self.points = ParticleBodies(particles, bodies, config.gravity, config.time.pic)
         self.kinds = [self.points]
         self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows)
         self.refiner = Refiner(world, grid, self.windows, self.kinds,
