@@ -6,9 +6,10 @@ import os
 import numpy as np
 import pytest
 
-from pmpm.case import CaseError, fill_body, load_case, validate_case
+from pmpm.case import CaseError, fill_body, validate_case
 from pmpm.grid import Window
 from pmpm.kernels import tied
+from pmpm.kernels.records import NodeBlock, TieSet
 from pmpm.particles import Particles
 from pmpm.particles.split import split, sub_cube_offsets
 from pmpm.post import axial_profiles, read_frame, read_summary, rms_error, wave_bar_stress
@@ -77,6 +78,12 @@ def test_particles_inside_a_window_get_its_spacing():
 
 # ---------------------------------------------------------------- kernels
 
+def node_block(block):
+    """The NodeBlock record of a LocalBlock (no box faces: the ties do not read them)."""
+    return NodeBlock(block.shape, block.lo, block.strides, np.full(3, 10 ** 6),
+                     np.zeros(6, np.int64), np.zeros(block.n_nodes, np.uint8))
+
+
 def test_ties_interpolate_on_the_coarse_faces_and_carry_mass_to_the_masters():
     """A window of coarse cells 1..2 (ratio 2) in a 4 x 3 x 3 box with coarse particles
     everywhere outside: every window face node is tied, its weights are the coarse
@@ -87,9 +94,8 @@ def test_ties_interpolate_on_the_coarse_faces_and_carry_mass_to_the_masters():
     occupied = np.ones(c_block.n_nodes, np.int64)
     n = w_block.n_nodes
     slaves, masters, weights = np.empty(n, np.int64), np.empty((n, 8), np.int64), np.empty((n, 8))
-    count = tied.find_ties(w_block.shape, w_block.lo, w_block.strides,
-                           np.array([2, 0, 0]), np.array([4, 6, 6]), 2, c_block.shape,
-                           c_block.lo, c_block.strides, occupied, slaves, masters, weights)
+    count = tied.find_ties(node_block(w_block), np.array([2, 0, 0]), np.array([4, 6, 6]), 2,
+                           node_block(c_block), occupied, TieSet(slaves, masters, weights, 0))
     assert count == n - 1 * 5 * 5                   # all but the 5 x 5 interior of x = 3
     assert np.allclose(weights[:count].sum(axis=1), 1.0)
     # the slave at level node (3, 1, 6): coarse (1.5, 0.5, 3): on the face z = 3
@@ -102,7 +108,7 @@ def test_ties_interpolate_on_the_coarse_faces_and_carry_mass_to_the_masters():
                                           (2, 1, 3): 0.25})
     fine = np.random.default_rng(0).uniform(1, 2, (n, 4))
     coarse = np.zeros((c_block.n_nodes, 4))
-    tied.slaves_to_masters(slaves, masters, weights, count, fine, coarse)
+    tied.slaves_to_masters(TieSet(slaves, masters, weights, count), fine, coarse)
     assert coarse.sum(axis=0) == pytest.approx(fine[slaves[:count]].sum(axis=0), rel=1e-13)
 
 
@@ -114,9 +120,8 @@ def test_a_face_without_coarse_particles_beside_it_is_not_tied():
     occupied[:2] = 1                                 # coarse particles only at x < 1
     n = w_block.n_nodes
     out = np.empty(n, np.int64), np.empty((n, 8), np.int64), np.empty((n, 8))
-    count = tied.find_ties(w_block.shape, w_block.lo, w_block.strides,
-                           np.array([2, 0, 0]), np.array([4, 6, 6]), 2, c_block.shape,
-                           c_block.lo, c_block.strides, occupied.ravel(), *out)
+    count = tied.find_ties(node_block(w_block), np.array([2, 0, 0]), np.array([4, 6, 6]), 2,
+                           node_block(c_block), occupied.ravel(), TieSet(*out, 0))
     assert count == 7 * 7                            # the x = 1 face only
     assert np.all(out[0][:count] // w_block.strides[0] == 0)
 
