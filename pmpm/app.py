@@ -89,13 +89,17 @@ def build_simulation(world, config, args, out):
         if scalars["time"] > end * (1 + 1e-12):
             raise InputError([f"time.end: {end:g} is before the checkpoint's time "
                               f"{scalars['time']:g}; --set a later time.end to continue"])
-        return Simulation.from_checkpoint(world, config, scalars, columns), scalars
+        return _set_up(Simulation.from_checkpoint, world, config, scalars, columns), scalars
+    case_dir = os.path.dirname(os.path.abspath(args.case))
+    return _set_up(Simulation.from_config, world, config, case_dir, fill_body), None
+
+
+def _set_up(build, *args):
+    """``build(*args)``, its SetupError turned into InputError."""
     try:
-        sim = Simulation.from_config(world, config,
-                                     os.path.dirname(os.path.abspath(args.case)), fill_body)
+        return build(*args)
     except SetupError as err:
         raise InputError(err.problems) from None
-    return sim, None
 
 
 def read_checkpoint(world, out):

@@ -262,7 +262,7 @@ def test_docs_example_loads(tmp_path):
     ({"decomposition__axis": "w"},
      "decomposition.axis: unknown axis 'w'; known: auto, x, y, z"),
     ({"gravty": [0, 0, -1]}, "gravty: unknown key (did you mean 'gravity'?)"),
-    ({"bodies": []}, "bodies: expected a list of at least 1 bodys"),
+    ({"bodies": []}, "bodies: expected a list of at least 1 body,"),
 ])
 def test_error_names_key_path(tmp_path, changes, expected):
     problems = problems_of(tmp_path, edited(**changes))

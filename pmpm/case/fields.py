@@ -378,7 +378,8 @@ class ListOf:
 
     def __call__(self, value, path, problems):
         if not isinstance(value, list) or len(value) < self.min_length:
-            problems.add(path, f"expected a list of at least {self.min_length} {self.what}s, "
+            what = self.what if self.min_length == 1 else f"{self.what}s"
+            problems.add(path, f"expected a list of at least {self.min_length} {what}, "
                          f"got {describe(value)}")
             return INVALID
         return [self.item(item, join(path, i), problems) for i, item in enumerate(value)]

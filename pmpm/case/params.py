@@ -16,7 +16,8 @@ _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
 def resolve_params(raw, problems):
-    """Validated ``{name: number}`` from the raw ``params`` mapping."""
+    """Validated ``{name: number}`` from the raw ``params`` mapping; a parameter whose
+    problem has been reported maps to INVALID, so its uses report nothing more."""
     if raw is None:
         return {}
     if not isinstance(raw, dict):
@@ -29,11 +30,10 @@ def resolve_params(raw, problems):
         if not ready:
             problems.add("params", "parameters refer to each other in a cycle: "
                          + ", ".join(sorted(pending)))
+            values.update(dict.fromkeys(pending, INVALID))
             break
         for name in ready:
-            value = _param_value(pending.pop(name), f"params.{name}", values, problems)
-            if value is not INVALID:
-                values[name] = value
+            values[name] = _param_value(pending.pop(name), f"params.{name}", values, problems)
     return values
 
 
@@ -79,6 +79,8 @@ def _param_value(value, path, values, problems):
 
 
 def _substitute_text(text, values, problems, path):
+    if _uses_invalid(text, values):
+        return INVALID
     try:
         whole = PATTERN.fullmatch(text)
         if whole:
@@ -91,6 +93,12 @@ def _substitute_text(text, values, problems, path):
         problems.add(path, f"unterminated or nested '${{' in {text!r}")
         return INVALID
     return result
+
+
+def _uses_invalid(text, values):
+    """Whether ``text`` refers to a parameter whose problem is already reported."""
+    return any(values.get(name) is INVALID
+               for expr in PATTERN.findall(text) for name in names_in(expr))
 
 
 def _as_text(value):

@@ -1,6 +1,8 @@
 """Slab decomposition of the coarse grid along one axis, balanced by particle count."""
 import numpy as np
 
+from ..solver.errors import SetupError
+
 AXES = "xyz"
 
 
@@ -65,8 +67,13 @@ def balanced_bounds(cell_counts, n_ranks):
 
 def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto"):
     """Pick the slab axis (given, or the one that balances best, ties to the smaller
-    cut plane) and its balanced bounds. ``cell_counts_per_axis`` holds three histograms."""
+    cut plane) and its balanced bounds. ``cell_counts_per_axis`` holds three histograms.
+    Raises SetupError, naming ``decomposition.axis``, when no candidate axis has a cell
+    layer for every rank."""
     candidates = range(3) if axis == "auto" else [AXES.index(axis)]
+    layers = max(len(cell_counts_per_axis[a]) for a in candidates)
+    if layers < n_ranks:
+        raise SetupError([_too_many_ranks(axis, layers, n_ranks)])
     best = None
     for a in candidates:
         counts = cell_counts_per_axis[a]
@@ -77,6 +84,18 @@ def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto"):
         key = (round(slabs.imbalance(counts), 3), plane)
         if best is None or key < best[0]:
             best = (key, slabs)
-    if best is None:
-        raise ValueError(f"the grid has fewer cells than the {n_ranks} ranks along every axis")
     return best[1]
+
+
+def _too_many_ranks(axis, layers, n_ranks):
+    """The problem line for ``n_ranks`` ranks when at most ``layers`` cell layers exist."""
+    if axis == "auto":
+        where, fix = "auto: no axis has more than", "use fewer ranks"
+    else:
+        where, fix = f"{axis} has", "choose another axis or fewer ranks"
+    return (f"decomposition.axis: {where} {_count(layers, 'cell layer')}: it can be split "
+            f"among at most {_count(layers, 'rank')} ({_count(n_ranks, 'rank')} asked); {fix}")
+
+
+def _count(n, noun):
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
