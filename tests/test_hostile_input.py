@@ -1,0 +1,109 @@
+"""Hostile or malformed case files (issue 17): an alias bomb, a NUL byte and bytes that are
+not UTF-8 are refused quickly with one line naming the file (exit 2), on 1 and 2 ranks."""
+import glob
+import os
+import subprocess
+import sys
+
+import pytest
+
+from clihelp import BAR, ROOT, pmpm, pmpm_lines
+from pmpm.case import CaseError, load_case
+from pmpm.case.yamlio import read_yaml_file
+
+RANKS = [1, 2]
+BOMB_MESSAGE = "YAML aliases expand beyond the limit"
+
+
+def alias_bomb(levels=9):
+    """A mapping of ``levels`` anchors, each a list of nine aliases of the one before:
+    9**levels nodes when expanded."""
+    lines = ["  a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    for i in range(1, levels):
+        lines.append(f"  a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]")
+    return "\n".join(lines) + "\n"
+
+
+def bar_with(tmp_path, data, at_line=None):
+    """cli_bar.yaml as bytes with ``data`` appended, or inserted as line ``at_line``."""
+    with open(BAR, "rb") as f:
+        lines = f.read().splitlines(keepends=True)
+    lines.insert(len(lines) if at_line is None else at_line - 1, data)
+    path = tmp_path / "case.yaml"
+    path.write_bytes(b"".join(lines))
+    return path
+
+
+def bomb_case(tmp_path):
+    return bar_with(tmp_path, b"junk:\n" + alias_bomb().encode())
+
+
+def test_alias_bomb_raises_case_error_quickly(tmp_path):
+    path = bomb_case(tmp_path)
+    code = ("import sys\nfrom pmpm.case import CaseError, load_case\n"
+            "try:\n    load_case(sys.argv[1])\nexcept CaseError as err:\n"
+            "    print(err)\n")
+    done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
+                          text=True, cwd=ROOT, timeout=20)
+    assert done.stdout.splitlines() == [
+        f"{path}: YAML aliases expand beyond the limit of 100000 nodes; refusing to load"]
+
+
+def test_recursive_alias_is_refused(tmp_path):
+    path = tmp_path / "loop.yaml"
+    path.write_text("a: &a [1, *a]\n", encoding="utf-8")
+    with pytest.raises(CaseError, match=BOMB_MESSAGE):
+        load_case(path)
+
+
+def test_a_few_aliases_still_load(tmp_path):
+    path = tmp_path / "few.yaml"
+    path.write_text(alias_bomb(levels=3), encoding="utf-8")
+    data, problems = read_yaml_file(path)
+    assert len(data["a2"]) == 9 and data["a2"][0][0] == ["x"] * 9 and not problems
+
+
+@pytest.mark.parametrize("path", sorted(glob.glob(os.path.join(ROOT, "runs", "*.yaml"))
+                                        + glob.glob(os.path.join(ROOT, "tests", "cases",
+                                                                 "*.yaml"))),
+                         ids=os.path.basename)
+def test_shipped_case_files_pass_the_alias_limit(path):
+    read_yaml_file(path)
+
+
+@pytest.mark.parametrize("ranks", RANKS)
+def test_alias_bomb_exits_2_with_one_line(tmp_path, ranks):
+    path = bomb_case(tmp_path)
+    done = pmpm([path, "--out", tmp_path / "out"], ranks=ranks, timeout=30)
+    assert done.returncode == 2, done.stderr
+    assert pmpm_lines(done.stderr) == [
+        f"pmpm: error: {path}: YAML aliases expand beyond the limit of 100000 nodes; "
+        "refusing to load"]
+    assert "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("ranks", RANKS)
+@pytest.mark.parametrize("line, message", [
+    (b"# caf\xff\n", "3:6: not UTF-8 text (byte 0xff)"),
+    (b"# caf\x00\n", "3:6: NUL byte"),
+], ids=["not utf-8", "nul"])
+def test_bad_bytes_exit_2_naming_line_and_column(tmp_path, ranks, line, message):
+    path = bar_with(tmp_path, line, at_line=3)
+    done = pmpm([path, "--out", tmp_path / "out"], ranks=ranks)
+    assert done.returncode == 2, done.stderr
+    assert pmpm_lines(done.stderr) == [f"pmpm: error: {path}:{message}"]
+    assert "Traceback" not in done.stderr
+
+
+def test_nul_in_a_value_names_its_column(tmp_path):
+    path = tmp_path / "nul.yaml"
+    path.write_bytes(b"a: 1\nb: ab\x00c\n")
+    with pytest.raises(CaseError, match=r"nul\.yaml:2:6: NUL byte$"):
+        load_case(path)
+
+
+def test_control_character_is_a_syntax_error(tmp_path):
+    path = tmp_path / "ctrl.yaml"
+    path.write_bytes(b"a: 1\nb: ab\x01c\n")
+    with pytest.raises(CaseError, match=r"ctrl\.yaml: YAML syntax error: unacceptable"):
+        load_case(path)
