@@ -1,8 +1,9 @@
 """From command-line arguments to a finished run: load and check the case, prepare the
 output directory, build or restore the state, compile, run."""
 import os
-import shutil
+import sys
 
+from .output_dir import OUTPUT_FILES, force_problem, replace_run_files
 from .solver.errors import SetupError
 
 
@@ -14,14 +15,12 @@ class InputError(Exception):
         super().__init__("\n".join(self.problems))
 
 
-OUTPUT_FILES = ("particles.h5", "particles.xdmf", "history.csv", "summary.json")
-
 
 def run_case(world, args):
     """Run the case of ``args`` on ``world``; returns the summary.json path."""
     config, case_text = load_checked_case(args.case, args.overrides)
     out = args.out or os.path.join("results", _stem(args.case))
-    prepare_output(world, out, args.force, args.restart)
+    prepare_output(world, out, args.force, args.restart, case_path=args.case)
     from .kernels.warmup import warm_up
     from .solver.memory import current_rss_bytes, return_freed_memory_to_os
     from .solver.run import Runner
@@ -48,32 +47,45 @@ def load_checked_case(path, overrides):
     return config, text
 
 
-def prepare_output(world, out, force, restart):
-    """Refuse to overwrite results unless asked; decided on rank 0 for every rank."""
+def prepare_output(world, out, force, restart, case_path=None):
+    """Refuse to overwrite results unless asked; decided on rank 0 for every rank.
+
+    Collective. The first barrier makes every rank finish reading its input (the case
+    file) before rank 0 may delete anything; ``--force`` deletes only a run's files."""
+    world.barrier()
     problem = None
     if world.is_root:
-        problem = _check_output(out, force, restart)
+        problem = _check_output(out, force, restart, case_path)
     problem = world.bcast(problem)
     if problem:
         raise InputError([problem])
     world.barrier()
 
 
-def _check_output(out, force, restart):
+def _check_output(out, force, restart, case_path=None):
     if os.path.exists(out) and not os.path.isdir(out):
         return f"--out: '{out}' exists and is not a directory"
-    exists = os.path.isdir(out) and os.listdir(out)
+    try:
+        names = os.listdir(out) if os.path.isdir(out) else []
+    except OSError as err:
+        return f"--out: cannot read output directory '{out}': {err.strerror or err}"
     if restart:
         from .io import latest_checkpoint
-        if not exists or latest_checkpoint(out) is None:
+        if not names or latest_checkpoint(out) is None:
             return f"--restart: no checkpoint in '{out}'"
         return None
-    if exists and not force:
+    if names and not force:
         return (f"--out: output directory '{out}' exists and is not empty; "
                 f"use --force to overwrite it or --restart to continue it")
+    if names:
+        problem = force_problem(out, case_path, names)
+        if problem:
+            return problem
     try:
-        if exists:
-            shutil.rmtree(out)
+        if names:
+            replaced = replace_run_files(out, names)
+            print(f"pmpm: --force: replacing {', '.join(replaced)} in {out}")
+            sys.stdout.flush()
         os.makedirs(out, exist_ok=True)
     except OSError as err:
         return f"--out: cannot prepare output directory '{out}': {err.strerror or err}"
