@@ -2,10 +2,10 @@
 
 The balance is kinetic + internal energy + gravitational potential (-sum m g.x) less the
 work the loads have done; its growth is measured against the energy the run was given
-(initial kinetic + internal, plus what gravity and the loads supplied). Where nothing else does work (no rigid body, no fixed face
-pushing, no contact with a rigid body), an explicit step that conserves energy keeps it
-constant; growth is numerical energy gained, the usual sign of a step or a feature used
-outside its range."""
+(initial kinetic + internal, plus what gravity and the loads supplied). Where nothing
+else does work (no rigid body, no fixed face pushing, no contact with a rigid body), an
+explicit step that conserves energy keeps the balance constant; growth is numerical
+energy gained, the usual sign of a step or a feature used outside its range."""
 import sys
 
 import numpy as np
