@@ -25,9 +25,12 @@ def run_case(world, args):
     from .solver.memory import current_rss_bytes, return_freed_memory_to_os
     from .solver.run import Runner
     return_freed_memory_to_os()
+    before_setup = current_rss_bytes()
+    setup = begin_set_up(world, config, args, out)
+    before_compile = current_rss_bytes()
     compile_s = world.max(warm_up())
-    baseline = current_rss_bytes()
-    sim, restart = build_simulation(world, config, args, out)
+    baseline = before_setup + current_rss_bytes() - before_compile
+    sim, restart = setup()
     runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart)
     runner.run(compile_s=compile_s, baseline_rss=baseline)
     return os.path.join(out, "summary.json")
@@ -92,7 +95,11 @@ def _check_output(out, force, restart, case_path=None):
     return None
 
 
-def build_simulation(world, config, args, out):
+def begin_set_up(world, config, args, out):
+    """What can be checked before the kernels compile (the checkpoint, the bodies'
+    positions and the slab decomposition), so that a bad input fails in a second;
+    returns a function that finishes the set-up and gives (simulation, checkpoint
+    scalars or None)."""
     from .case import fill_body
     from .solver.simulation import Simulation
     if args.restart:
@@ -101,9 +108,11 @@ def build_simulation(world, config, args, out):
         if scalars["time"] > end * (1 + 1e-12):
             raise InputError([f"time.end: {end:g} is before the checkpoint's time "
                               f"{scalars['time']:g}; --set a later time.end to continue"])
-        return _set_up(Simulation.from_checkpoint, world, config, scalars, columns), scalars
+        return lambda: (_set_up(Simulation.from_checkpoint, world, config, scalars, columns),
+                        scalars)
     case_dir = os.path.dirname(os.path.abspath(args.case))
-    return _set_up(Simulation.from_config, world, config, case_dir, fill_body), None
+    layout = _set_up(Simulation.lay_out, world, config, case_dir, fill_body)
+    return lambda: (_set_up(Simulation.from_layout, world, config, layout), None)
 
 
 def _set_up(build, *args):

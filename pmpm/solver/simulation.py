@@ -57,13 +57,24 @@ class Simulation:
     def from_config(cls, world, config, case_dir, fill_body):
         """The initial state of a ``pmpm.case.CaseConfig`` (``case_dir``: where mesh
         files are looked up)."""
+        return cls.from_layout(world, config, cls.lay_out(world, config, case_dir, fill_body))
+
+    @staticmethod
+    def lay_out(world, config, case_dir, fill_body):
+        """The bodies' positions and the slab decomposition, before any kernel is
+        compiled: a decomposition that cannot be made fails here, in a second."""
         grid = CoarseGrid.from_config(config.grid)
-        bodies = BodyTable(config)
         filled = fill_positions(config, fill_body, case_dir)
         x = np.concatenate([positions for positions, _ in filled])
         slabs = choose_slabs(grid.cell_histograms(x), world.size, config.decomposition.axis)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
-        del x
+        return grid, filled, slabs, mine
+
+    @classmethod
+    def from_layout(cls, world, config, layout):
+        """The initial state from what ``lay_out`` returned."""
+        grid, filled, slabs, mine = layout
+        bodies = BodyTable(config)
         particles = build_on_every_rank(world, lambda: build_particles(config, bodies, filled,
                                                                        mine))
         problems = assign_loads(config, particles, world.sum)
