@@ -16,16 +16,21 @@ def comm_world():
 
 
 @pytest.mark.mpi(min_size=2)
-def test_shared_planes_are_summed_once_and_agree():
+@pytest.mark.parametrize("halo", [0, 1])
+def test_shared_planes_are_summed_once_and_agree(halo):
     world = comm_world()
     slabs = Slabs(0, np.linspace(0, 4 * world.size, world.size + 1).astype(int))
-    block = LocalBlock.for_rank(slabs, world.rank, np.zeros(3, int), np.array([4 * world.size - 1, 2, 2]))
+    block = LocalBlock.for_rank(slabs, world.rank, np.zeros(3, int),
+                                np.array([4 * world.size - 1, 2, 2]), halo=halo)
     values = np.full((block.n_nodes, 2), float(world.rank + 1))
     sum_shared_planes(world, block.shared_planes, block.as_planes(values))
     planes = block.as_planes(values)
-    for neighbour, index in block.shared_planes:
-        assert np.all(planes[index] == world.rank + 1 + neighbour + 1)
-    interior = [i for i in range(planes.shape[0]) if i not in [ix for _, ix in block.shared_planes]]
+    shared = set()
+    for neighbour, (first, stop) in block.shared_planes:
+        assert stop - first == 2 * halo + 1
+        assert np.all(planes[first:stop] == world.rank + 1 + neighbour + 1)
+        shared.update(range(first, stop))
+    interior = [i for i in range(planes.shape[0]) if i not in shared]
     assert np.all(planes[interior] == world.rank + 1)
 
 

@@ -9,48 +9,76 @@ from pmpm.kernels.boundary import fill_face_codes
 from pmpm.kernels.records import (BodyMaterials, ExternalLoads, GridGeometry, NodeBlock,
                                   PointState)
 from pmpm.materials.state import MaterialState
-from pmpm.kernels.shape import trilinear
+from pmpm.kernels.shape import BSPLINE, GIMP, LINEAR, MAX_NODES, stencil
 from pmpm.materials.catalog import pack
 from numba import njit
 
 
 @njit
-def _shape_of(x, p, origin, inv_h, lo, strides):
-    nodes = np.empty(8, np.int64)
-    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
-    trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
-    return nodes, w, gx, gy, gz
+def _shape_of(x, p, origin, inv_h, lo, strides, kind, lp):
+    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
+    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
+                     np.empty(MAX_NODES))
+    reach = stencil(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w, gx, gy, gz)
+    return nodes[:reach], w[:reach], gx[:reach], gy[:reach], gz[:reach]
 
 
-def block(n=4):
-    return LocalBlock(np.zeros(3, np.int64), np.full(3, n + 1), 0, [])
+def block(n=4, halo=0):
+    return LocalBlock(np.full(3, -halo, np.int64), np.full(3, n + 1 + 2 * halo), 0, [])
 
 
-def test_shape_functions_partition_unity_and_reproduce_linear_fields():
+SHAPES = [(LINEAR, 0.0, 8), (GIMP, 0.25, 27), (GIMP, 0.5, 27), (BSPLINE, 0.0, 27)]
+
+
+@pytest.mark.parametrize("kind, lp, reach", SHAPES)
+def test_shape_functions_partition_unity_and_reproduce_linear_fields(kind, lp, reach):
     rng = np.random.default_rng(1)
-    x = rng.uniform(0.1, 3.9, size=(50, 3))
-    b = block()
+    x = np.concatenate([rng.uniform(0.1, 3.9, size=(50, 3)),
+                        [[1.0, 2.5, 1.5], [1.25, 1.75, 2.4999999]]])   # on nodes, mid-cell
+    b = block(halo=1)
     for p in range(len(x)):
-        nodes, w, gx, gy, gz = _shape_of(x, p, np.zeros(3), 1.0, b.lo, b.strides)
+        nodes, w, gx, gy, gz = _shape_of(x, p, np.zeros(3), 1.0, b.lo, b.strides, kind, lp)
+        assert len(nodes) == reach and np.all(w >= 0.0)
         assert w.sum() == pytest.approx(1.0, abs=1e-14)
         assert abs(gx.sum()) + abs(gy.sum()) + abs(gz.sum()) < 1e-13
-        coords = np.stack(np.unravel_index(nodes, tuple(b.shape)), axis=1).astype(float)
+        coords = np.stack(np.unravel_index(nodes, tuple(b.shape)), axis=1) + b.lo
         assert w @ coords == pytest.approx(x[p], abs=1e-12)          # reproduces x
         grad = np.stack([gx, gy, gz]) @ coords                        # d x_i / d x_j = I
         assert grad == pytest.approx(np.eye(3), abs=1e-12)
 
 
-def test_particle_to_grid_conserves_mass_and_momentum():
+def _gradient_field(x, b, kind, lp):
+    nodes, _, gx, _, _ = _shape_of(np.array([x]), 0, np.zeros(3), 1.0, b.lo, b.strides,
+                                   kind, lp)
+    field = np.zeros(b.n_nodes)
+    np.add.at(field, nodes, gx)
+    return field
+
+
+@pytest.mark.parametrize("kind, lp", [(GIMP, 0.25), (GIMP, 0.5), (BSPLINE, 0.0)])
+@pytest.mark.parametrize("plane", [2.0, 2.5])        # a cell face, a cell's mid-plane
+def test_smooth_shape_gradients_do_not_jump_when_a_particle_crosses(kind, lp, plane):
+    b = block(halo=1)
+    below = _gradient_field([plane - 1e-7, 2.5, 2.5], b, kind, lp)
+    above = _gradient_field([plane + 1e-7, 2.5, 2.5], b, kind, lp)
+    assert np.abs(below - above).max() < 1e-5
+    hat_below = _gradient_field([2.0 - 1e-7, 2.5, 2.5], b, LINEAR, 0.0)
+    hat_above = _gradient_field([2.0 + 1e-7, 2.5, 2.5], b, LINEAR, 0.0)
+    assert np.abs(hat_below - hat_above).max() > 0.4      # the hat's jump, for contrast
+
+
+@pytest.mark.parametrize("shape", [LINEAR, GIMP, BSPLINE])
+def test_particle_to_grid_conserves_mass_and_momentum(shape):
     rng = np.random.default_rng(2)
     n = 200
     x = rng.uniform(0.0, 4.0, size=(n, 3))
     v = rng.normal(size=(n, 3))
     mass = rng.uniform(1, 2, n)
-    b = block()
+    b = block(halo=1)
     nodal = np.zeros((b.n_nodes, mpm.NODAL_COMPONENTS))
     points = PointState(x, v, mass, np.zeros(n, np.int32), np.zeros(n, np.int32))
     mpm.particles_to_grid(points, np.zeros(1, np.bool_), GridGeometry(np.zeros(3), 1.0, b.lo,
-                          b.strides), nodal, 0)
+                          b.strides, shape, np.full(1, 0.25)), nodal, 0)
     assert nodal[:, 0].sum() == pytest.approx(mass.sum(), rel=1e-13)
     assert nodal[:, 1:4].sum(axis=0) == pytest.approx(mass @ v, rel=1e-12, abs=1e-12)
 
@@ -93,7 +121,7 @@ def test_internal_forces_of_uniform_stress_cancel_inside():
     bodies = BodyMaterials(np.array([code]), row[None, :], np.zeros(1, np.bool_))
     loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(n, -1, np.int32), np.zeros(n))
     mpm.stress_and_forces(points, mat, bodies, loads, 1e-6, 1.0,
-                          GridGeometry(np.zeros(3), 1.0, b.lo, b.strides),
+                          GridGeometry(np.zeros(3), 1.0, b.lo, b.strides, 0, np.zeros(1)),
                           np.zeros((b.n_nodes, 3)), force, None, 0, True, True)
     assert np.all(stress == [100.0, 50.0, 20.0, 10.0, 5.0, 2.0])
     assert np.abs(force.sum(axis=0)).max() < 1e-10
@@ -108,10 +136,22 @@ def test_slab_blocks_share_planes_with_neighbours():
     blocks = [LocalBlock.for_rank(slabs, r, lo, hi) for r in range(3)]
     assert [b.lo[0] for b in blocks] == [1, 3, 7]
     assert [b.shape[0] for b in blocks] == [3, 5, 3]
-    assert blocks[0].shared_planes == [(1, 2)]
-    assert blocks[1].shared_planes == [(0, 0), (2, 4)]
-    assert blocks[2].shared_planes == [(1, 0)]
+    assert blocks[0].shared_planes == [(1, (2, 3))]
+    assert blocks[1].shared_planes == [(0, (0, 1)), (2, (4, 5))]
+    assert blocks[2].shared_planes == [(1, (0, 1))]
     assert all(list(b.shape[1:]) == [6, 6] for b in blocks)     # cells 0..4 -> nodes 0..5
+
+
+def test_a_halo_widens_the_block_and_shares_three_planes_around_a_slab_plane():
+    slabs = Slabs(0, [0, 3, 7, 10])
+    lo, hi = np.array([1, 0, 0]), np.array([8, 4, 4])
+    blocks = [LocalBlock.for_rank(slabs, r, lo, hi, halo=1) for r in range(3)]
+    assert [b.lo[0] for b in blocks] == [0, 2, 6]
+    assert [b.shape[0] for b in blocks] == [5, 7, 5]
+    assert blocks[0].shared_planes == [(1, (2, 5))]                  # nodes 2, 3, 4
+    assert blocks[1].shared_planes == [(0, (0, 3)), (2, (4, 7))]     # 2..4 and 6..8
+    assert blocks[2].shared_planes == [(1, (0, 3))]                  # nodes 6, 7, 8
+    assert all(list(b.lo[1:]) == [-1, -1] and list(b.shape[1:]) == [8, 8] for b in blocks)
 
 
 def test_cached_loop_that_inlines_materials_is_dropped_when_they_change(tmp_path):

@@ -150,6 +150,7 @@ class GridConfig:
     min: tuple
     max: tuple
     cell: float
+    shape_functions: str
     boundary: ReadOnlyDict
     windows: tuple
 

@@ -148,6 +148,12 @@ GRID = {
                  doc="upper corner of the grid box; rounded up so that max - min is a "
                      "whole number of cells (the rounded value is stored)"),
     "cell": Field(number(greater(0)), unit="mm", doc="cell size h (cubic cells)"),
+    "shape_functions": Field(
+        choice(("linear", "gimp", "bspline"), "shape function"), "linear",
+        doc="`linear`: trilinear hats on 8 nodes (seed 000 Eq. 5); `gimp`: uniform GIMP, "
+            "the hat smoothed over the particle's width (cell / particles_per_cell), 27 "
+            "nodes; `bspline`: quadratic B-splines, 27 nodes. The 27-node shapes have "
+            "continuous gradients, so particles crossing cell faces do not create energy"),
     "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY),
                       doc="the condition on each face of the grid box"),
     "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],

@@ -8,10 +8,10 @@ def sum_shared_planes(world, planes, block):
     Parameters
     ----------
     world : World
-    planes : sequence of (neighbour_rank, local_plane_index)
-        The shared planes this rank holds (see ``Grid.shared_planes``); the neighbour holds
-        the same plane with the same transverse extent, so one packed message of
-        ``block[local_plane_index]`` per neighbour per phase suffices.
+    planes : sequence of (neighbour_rank, (first, stop))
+        The shared node planes this rank holds (see ``LocalBlock.shared_planes``); the
+        neighbour holds the same planes with the same transverse extent, so one packed
+        message of ``block[first:stop]`` per neighbour per phase suffices.
     block : ndarray, shape (n_axis, n1, n2, n_components)
         Local nodal values with the slab axis first, so a plane is one contiguous slice.
 
@@ -29,22 +29,26 @@ def or_shared_planes(world, planes, block):
 
 
 def _combine_shared_planes(world, planes, block, combine):
-    """``block[index] = combine(block[index], neighbour's copy)`` for every shared plane;
-    ``block`` may also be a dict of plane index -> view."""
+    """``block[first:stop] = combine(block[first:stop], neighbour's copy)`` for every
+    shared span of planes; ``block`` may also be a dict of span -> view."""
     if not planes:
         return
     MPI = _mpi()
     requests, received = [], []
-    for neighbour, index in planes:
-        outgoing = np.ascontiguousarray(block[index])
+    for neighbour, span in planes:
+        outgoing = np.ascontiguousarray(_planes(block, span))
         incoming = np.empty_like(outgoing)
         requests.append(world.raw.Irecv(incoming, source=neighbour, tag=71))
         requests.append(world.raw.Isend(outgoing, dest=neighbour, tag=71))
-        received.append((index, incoming, outgoing))
+        received.append((span, incoming, outgoing))
     MPI.Request.Waitall(requests)
-    for index, incoming, _ in received:
-        view = block[index]
+    for span, incoming, _ in received:
+        view = _planes(block, span)
         combine(view, incoming, out=view)
+
+
+def _planes(block, span):
+    return block[span] if isinstance(block, dict) else block[span[0]:span[1]]
 
 
 def migrate_store(world, destination, store, check=True):

@@ -58,7 +58,9 @@ class LocalBlock:
     ----------
     lo, shape : int64 (3,)
     strides : int64 (3,)   flat index of local node (i, j, k) is i*s0 + j*s1 + k*s2
-    shared_planes : list of (neighbour_rank, local plane index along the slab axis)
+    shared_planes : list of (neighbour_rank, (first, stop)): the local node planes along
+        the slab axis this rank shares with a neighbour (``2 halo + 1`` planes around the
+        slab plane), the same planes with the same transverse extent on both sides
     """
 
     def __init__(self, lo, shape, slab_axis, shared_planes):
@@ -79,10 +81,13 @@ class LocalBlock:
         return nodal.reshape(tuple(self.shape[self.order]) + nodal.shape[1:])
 
     @classmethod
-    def for_rank(cls, slabs, rank, cell_min, cell_max, ratio=1):
+    def for_rank(cls, slabs, rank, cell_min, cell_max, ratio=1, halo=0):
         """Block of ``rank`` given the global particle cell range [cell_min, cell_max],
         in the cell indices of a level refined ``ratio`` times (slab planes, on coarse
-        grid lines, are then at ``ratio`` times their coarse index)."""
+        grid lines, are then at ``ratio`` times their coarse index), widened by ``halo``
+        node layers on every side for shape functions that reach beyond a particle's
+        cell. A slab plane's particles on both sides then reach the ``2 halo + 1`` node
+        planes around it, which both neighbours hold and sum."""
         a = slabs.axis
         first, last = (ratio * bound for bound in slabs.owned(rank))
         lo = np.array(cell_min, dtype=np.int64)
@@ -90,8 +95,9 @@ class LocalBlock:
         lo[a], hi[a] = max(first, cell_min[a]), min(last, cell_max[a] + 1)
         planes = []
         if lo[a] <= hi[a]:
+            span = int(hi[a] - lo[a]) + 2 * halo
             if rank > 0 and lo[a] == first:
-                planes.append((rank - 1, 0))
+                planes.append((rank - 1, (0, 2 * halo + 1)))
             if rank < slabs.size - 1 and hi[a] == last:
-                planes.append((rank + 1, int(hi[a] - lo[a])))
-        return cls(lo, hi - lo + 1, a, planes)
+                planes.append((rank + 1, (span - 2 * halo, span + 1)))
+        return cls(lo - halo, hi - lo + 1 + 2 * halo, a, planes)

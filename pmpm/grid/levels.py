@@ -63,10 +63,12 @@ class Window:
 class Level:
     """One grid of the hierarchy as the kernels see it: ``ratio``, ``h``, ``inv_h``,
     ``origin``, ``n_cells`` (of the whole box at this level) and the box-face
-    ``boundary`` codes; ``window`` is None for the coarse grid."""
+    ``boundary`` codes; ``window`` is None for the coarse grid; ``halo``: the node layers
+    the shape functions reach beyond a particle's cell."""
 
-    def __init__(self, grid, window=None):
+    def __init__(self, grid, window=None, halo=0):
         self.window = window
+        self.halo = halo
         self.ratio = window.ratio if window is not None else 1
         self.h = grid.h / self.ratio
         self.inv_h = self.ratio / grid.h
@@ -80,8 +82,9 @@ class Level:
 
     def block(self, slabs, rank, cell_min, cell_max):
         """This rank's block of the level's nodes for particles in cells ``cell_min`` to
-        ``cell_max`` (level cell indices, global over ranks), cut at the slab planes."""
-        return LocalBlock.for_rank(slabs, rank, cell_min, cell_max, self.ratio)
+        ``cell_max`` (level cell indices, global over ranks), cut at the slab planes and
+        widened by the shape functions' halo."""
+        return LocalBlock.for_rank(slabs, rank, cell_min, cell_max, self.ratio, self.halo)
 
     def window_faces(self):
         """(lowest, highest) level node index of the window's faces, int64 (3,) each."""

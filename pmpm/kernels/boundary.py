@@ -16,7 +16,9 @@ BOUNDARY_CODES = {"free": FREE, "slip": SLIP, "fixed": FIXED, "symmetry": SLIP}
 def fill_face_codes(shape, lo, strides, n_cells, bc, faces):
     """faces[n] = the packed face codes of every local node n of a block (``shape``,
     ``lo``, ``strides``) of a level with ``n_cells`` cells and the box-face codes ``bc``
-    in the order x-, x+, y-, y+, z-, z+."""
+    in the order x-, x+, y-, y+, z-, z+. A node beyond a face (the halo of the 27-node
+    shape functions, ``pmpm.kernels.shape``) takes that face's condition, like the node
+    on it."""
     g = np.empty(3, np.int64)
     for i in range(shape[0]):
         for j in range(shape[1]):
@@ -24,9 +26,9 @@ def fill_face_codes(shape, lo, strides, n_cells, bc, faces):
                 g[0], g[1], g[2] = lo[0] + i, lo[1] + j, lo[2] + k
                 code = 0
                 for d in range(3):
-                    if g[d] == 0:
+                    if g[d] <= 0:
                         code |= bc[2 * d] << (2 * d)
-                    elif g[d] == n_cells[d]:
+                    elif g[d] >= n_cells[d]:
                         code |= bc[2 * d + 1] << (2 * d)
                 faces[i * strides[0] + j * strides[1] + k * strides[2]] = code
 

@@ -24,26 +24,32 @@ import numpy as np
 from numba import njit
 
 from .boundary import constrain_coded
+from .shape import axis_stencil
 
 CNODAL, CVEL, CNEW = 10, 3, 6
 
 
 @njit(cache=True)
 def body_masks(pts, geo, mask, want):
-    """mask[n] |= 1 << body for the 8 nodes of the cell of every point of ``pts`` (a
-    PointState) with ``level[p] == want``; ``geo`` a GridGeometry."""
+    """mask[n] |= 1 << body for every node the shape functions of a point of ``pts`` (a
+    PointState) with ``level[p] == want`` reach; ``geo`` a GridGeometry."""
     x, _, _, body, level = pts
-    origin, inv_h, lo, strides = geo
+    origin, inv_h, lo, strides, shape, half_width = geo
+    axes = np.empty((9, 3))
+    first = np.empty(3, np.int64)
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
-        base = 0
+        base, reach = 0, 0
         for d in range(3):
-            base += (np.int64(np.floor((x[p, d] - origin[d]) * inv_h)) - lo[d]) * strides[d]
+            first[d], reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
+                                           half_width[body[p]], axes[3 * d],
+                                           axes[3 * d + 1], axes[3 * d + 2])
+            base += (first[d] - lo[d]) * strides[d]
         bit = np.int64(1) << np.int64(body[p])
-        for a in range(2):
-            for b in range(2):
-                for c in range(2):
+        for a in range(reach):
+            for b in range(reach):
+                for c in range(reach):
                     mask[base + a * strides[0] + b * strides[1] + c * strides[2]] |= bit
 
 
@@ -72,38 +78,38 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
     offset from the node (in cells) at the contact nodes, from the points with
     ``level[p] == want``."""
     x, v, mass, body, level = pts
-    origin, inv_h, lo, strides = geo
+    origin, inv_h, lo, strides, shape, half_width = geo
+    axes = np.empty((9, 3))
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
-        s0 = (x[p, 0] - origin[0]) * inv_h
-        s1 = (x[p, 1] - origin[1]) * inv_h
-        s2 = (x[p, 2] - origin[2]) * inv_h
-        c0, c1, c2 = np.floor(s0), np.floor(s1), np.floor(s2)
-        r0, r1, r2 = s0 - c0, s1 - c1, s2 - c2
-        base = ((np.int64(c0) - lo[0]) * strides[0] + (np.int64(c1) - lo[1]) * strides[1]
-                + (np.int64(c2) - lo[2]) * strides[2])
         b, m = body[p], mass[p]
-        for a in range(2):
-            wx, dx = (r0, inv_h) if a else (1.0 - r0, -inv_h)
-            for bb in range(2):
-                wy, dy = (r1, inv_h) if bb else (1.0 - r1, -inv_h)
-                for cc in range(2):
+        base, reach = 0, 0
+        for d in range(3):
+            first, reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
+                                        half_width[b], axes[3 * d], axes[3 * d + 1],
+                                        axes[3 * d + 2])
+            base += (first - lo[d]) * strides[d]
+        wx, dx, ox = axes[0], axes[1], axes[2]
+        wy, dy, oy = axes[3], axes[4], axes[5]
+        wz, dz, oz = axes[6], axes[7], axes[8]
+        for a in range(reach):
+            for bb in range(reach):
+                for cc in range(reach):
                     s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
                     if s < 0:
                         continue
-                    wz, dz = (r2, inv_h) if cc else (1.0 - r2, -inv_h)
-                    mw = m * wx * wy * wz
+                    mw = m * wx[a] * wy[bb] * wz[cc]
                     cnodal[s, b, 0] += mw
                     cnodal[s, b, 1] += mw * v[p, 0]
                     cnodal[s, b, 2] += mw * v[p, 1]
                     cnodal[s, b, 3] += mw * v[p, 2]
-                    cnodal[s, b, 4] += m * dx * wy * wz
-                    cnodal[s, b, 5] += m * wx * dy * wz
-                    cnodal[s, b, 6] += m * wx * wy * dz
-                    cnodal[s, b, 7] += mw * (r0 - a)
-                    cnodal[s, b, 8] += mw * (r1 - bb)
-                    cnodal[s, b, 9] += mw * (r2 - cc)
+                    cnodal[s, b, 4] += m * (dx[a] * inv_h) * wy[bb] * wz[cc]
+                    cnodal[s, b, 5] += m * wx[a] * (dy[bb] * inv_h) * wz[cc]
+                    cnodal[s, b, 6] += m * wx[a] * wy[bb] * (dz[cc] * inv_h)
+                    cnodal[s, b, 7] += mw * ox[a]
+                    cnodal[s, b, 8] += mw * oy[bb]
+                    cnodal[s, b, 9] += mw * oz[cc]
 
 
 @njit(cache=True, inline="always")

@@ -23,7 +23,7 @@ from numba import njit
 
 from ..materials.kernels import update_stress_columns
 from .boundary import constrain_coded
-from .shape import trilinear
+from .shape import MAX_NODES, stencil
 
 NODAL_COMPONENTS = 8
 
@@ -32,16 +32,18 @@ NODAL_COMPONENTS = 8
 def particles_to_grid(pts, rigid, geo, nodal, want):
     """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
     x, v, mass, body, level = pts
-    origin, inv_h, lo, strides = geo
-    nodes = np.empty(8, np.int64)
-    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    origin, inv_h, lo, strides, shape, half_width = geo
+    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
+    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
+                     np.empty(MAX_NODES))
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w, gx, gy, gz)
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
-        for k in range(8):
+        for k in range(reach):
             n, mw = nodes[k], m * w[k]
             nodal[n, slot] += mw
             nodal[n, slot + 1] += mw * v[p, 0]
@@ -96,11 +98,12 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
     the new nodal velocity at the particle (PIC), which damps. Returns the index of the
     first particle whose new position is not finite, else -1."""
     x, v, _, body, level = pts
-    origin, inv_h, lo, strides = geo
+    origin, inv_h, lo, strides, shape, half_width = geo
     if contact is not None:
         slot_of, cnew = contact.slot_of, contact.cnew
-    nodes = np.empty(8, np.int64)
-    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
+    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
+    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
+                     np.empty(MAX_NODES))
     bad = -1
     for p in range(x.shape[0]):
         if level[p] != want:
@@ -109,10 +112,11 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
             for d in range(3):
                 x[p, d] += dt * v[p, d]
             continue
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
-        dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
         b = body[p]
-        for k in range(8):
+        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
+                        w, gx, gy, gz)
+        dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
+        for k in range(reach):
             n, wk = nodes[k], w[k]
             s = -1
             if contact is not None:
@@ -168,12 +172,13 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     stress, F, rho, eps_p, e_int, temp, q = mat
     codes, params, rigid = bodies
     gravity, load_vec, load, load_scale = loads
-    origin, inv_h, lo, strides = geo
+    origin, inv_h, lo, strides, shape, half_width = geo
     if contact is not None:
         slot_of, cvel, cforce = contact.slot_of, contact.cvel, contact.cforce
-    nodes = np.empty(8, np.int64)
-    w, gx, gy, gz = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
-    slots = np.full(8, -1, np.int64)
+    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
+    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
+                     np.empty(MAX_NODES))
+    slots = np.full(MAX_NODES, -1, np.int64)
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     for p in range(x.shape[0]):
@@ -184,13 +189,14 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             if stresses:
                 fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
             continue
-        trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
+        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
+                        w, gx, gy, gz)
         if contact is not None:     # every use of ``contact`` sits under a test of None,
-            for k in range(8):      # so that Numba compiles it away without contact
+            for k in range(reach):  # so that Numba compiles it away without contact
                 slots[k] = slot_of[nodes[k]]
         if stresses:
             Lg[:, :] = 0.0          # L_ij = sum_I v_Ii dN_I/dx_j, written out: as an
-            for k in range(8):      # inlined call it costs 7 % of the step in reference
+            for k in range(reach):  # inlined call it costs 7 % of the step in reference
                 n, s = nodes[k], slots[k]       # counting
                 if s < 0:
                     for i in range(3):
@@ -220,7 +226,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             ex += ls * load_vec[li, 0]
             ey += ls * load_vec[li, 1]
             ez += ls * load_vec[li, 2]
-        for k in range(8):
+        for k in range(reach):
             n = nodes[k]
             f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
             f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])

@@ -13,8 +13,10 @@ from collections import namedtuple
 from ..materials.state import MaterialState
 
 #: The grid of one level as a particle kernel sees it: ``origin`` (3,), ``inv_h`` (the
-#: level's 1 / cell size), and the rank's local node block ``lo`` (3,), ``strides`` (3,).
-GridGeometry = namedtuple("GridGeometry", "origin inv_h lo strides")
+#: level's 1 / cell size), the rank's local node block ``lo`` (3,), ``strides`` (3,),
+#: the ``shape`` function code (``pmpm.kernels.shape``) and per body the particles' uGIMP
+#: ``half_width`` (nb,) in cells.
+GridGeometry = namedtuple("GridGeometry", "origin inv_h lo strides shape half_width")
 
 #: A local node block as a node kernel sees it: ``shape``, ``lo``, ``strides`` (3,) of
 #: the block, the level's ``n_cells`` (3,), the box-face ``boundary`` codes (6,) and

@@ -1,46 +1,110 @@
-"""Trilinear shape functions of the hexahedral cell (seed 000 Eq. 5)."""
+"""Shape functions of the background grid: the trilinear hats of seed 000 (Eq. 5), the
+uniform generalized interpolation material point functions (uGIMP, Bardenhagen and
+Kober 2004) and quadratic B-splines (Steffen, Kirby and Berzins 2008).
+
+Every shape is a tensor product of 1D functions of the particle's offset from a node
+in cells. The trilinear hat reaches the 2 nodes of the particle's cell along each axis
+(8 nodes); uGIMP and the quadratic B-spline reach 3 (27 nodes): the node nearest the
+particle and its two neighbours. Those 3-node shapes touch one node layer beyond the
+particle's cell, so a rank's node block carries a halo of ``HALO[kind]`` node layers
+(``pmpm.grid.LocalBlock``).
+
+uGIMP convolves the hat with the particle's characteristic function of half-width
+``lp`` (in cells; ``0.5 / particles_per_cell`` of the body): with r the offset,
+
+    |r| <  lp:            1 - (r^2 + lp^2) / (2 lp)
+    lp <= |r| <= 1 - lp:  1 - |r|
+    1 - lp < |r| < 1 + lp: (1 + lp - |r|)^2 / (4 lp)
+
+Both it and the B-spline have continuous gradients, so a particle crossing a cell face
+no longer sees its stress-divergence weights jump (the cell-crossing error of the hat).
+"""
 import numpy as np
 from numba import njit
 
+LINEAR, GIMP, BSPLINE = 0, 1, 2
+#: case-file name (``grid.shape_functions``) -> code
+SHAPE_CODES = {"linear": LINEAR, "gimp": GIMP, "bspline": BSPLINE}
+#: node layers a shape reaches beyond the particle's cell
+HALO = {LINEAR: 0, GIMP: 1, BSPLINE: 1}
+#: the most nodes any shape reaches (the size of the kernels' per-particle scratch)
+MAX_NODES = 27
+
 
 @njit(cache=True, inline="always")
-def _axis(x, p, d, origin, inv_h, lo, strides):
-    s = (x[p, d] - origin[d]) * inv_h
-    c = np.floor(s)
-    return s - c, (np.int64(c) - lo[d]) * strides[d]
+def axis_stencil(s, kind, lp, wts, ders, offs):
+    """The 1D weights ``wts``, derivatives in cells ``ders`` and offsets from the node
+    ``offs`` (particle minus node, in cells) of the nodes a particle at ``s`` (cells from
+    the origin) reaches along one axis; returns (first node index, node count)."""
+    if kind == LINEAR:
+        c = np.floor(s)
+        r = s - c
+        wts[0], wts[1] = 1.0 - r, r
+        ders[0], ders[1] = -1.0, 1.0
+        offs[0], offs[1] = r, r - 1.0
+        return np.int64(c), 2
+    c = np.floor(s + 0.5)
+    d = s - c                                    # in [-0.5, 0.5)
+    offs[0], offs[1], offs[2] = d + 1.0, d, d - 1.0
+    if kind == BSPLINE:
+        wts[0], wts[1], wts[2] = 0.5 * (0.5 - d) ** 2, 0.75 - d * d, 0.5 * (0.5 + d) ** 2
+        ders[0], ders[1], ders[2] = d - 0.5, -2.0 * d, 0.5 + d
+    else:
+        for j in range(3):
+            wts[j], ders[j] = _gimp(offs[j], lp)
+    return np.int64(c) - 1, 3
 
 
 @njit(cache=True, inline="always")
-def trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz):
-    """Fill the 8 local node indices, weights and gradients of particle ``p``.
+def _gimp(r, lp):
+    """uGIMP weight and its derivative along the offset ``r`` (cells), half-width lp."""
+    a = abs(r)
+    sign = 1.0 if r >= 0.0 else -1.0
+    if a < lp:
+        return 1.0 - (r * r + lp * lp) / (2.0 * lp), -r / lp
+    if a <= 1.0 - lp:
+        return 1.0 - a, -sign
+    if a < 1.0 + lp:
+        t = 1.0 + lp - a
+        return t * t / (4.0 * lp), -sign * t / (2.0 * lp)
+    return 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def stencil(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w, gx, gy, gz):
+    """Fill the local node indices, weights and gradients of particle ``p``; returns how
+    many nodes it reaches (8 or 27).
 
     Parameters
     ----------
     x : (n,3) positions; origin, inv_h: grid origin and 1/h; lo, strides: local block.
-    nodes : int64 (8,) out: flat local node indices.  w, gx, gy, gz : float64 (8,) out.
+    kind, lp : shape code and the particle's uGIMP half-width in cells.
+    axes : float64 (9, 3) scratch: per axis d, rows 3d..3d+2 hold weights, derivatives
+        and offsets (see :func:`axis_stencil`).
+    nodes : int64 (27,) out: flat local node indices.  w, gx, gy, gz : float64 (27,) out.
 
     Notes
     -----
-    With r the position in cell units inside its cell, the weight of corner (a,b,c) is
-    prod_d (a_d ? r_d : 1 - r_d); its gradient along d replaces that factor by +-1/h.
+    The weight of node (a,b,c) is prod_d W_d; its gradient along d replaces W_d by its
+    derivative times 1/h. For the hat this is seed 000's trilinear function exactly.
     """
-    r0, b0 = _axis(x, p, 0, origin, inv_h, lo, strides)
-    r1, b1 = _axis(x, p, 1, origin, inv_h, lo, strides)
-    r2, b2 = _axis(x, p, 2, origin, inv_h, lo, strides)
-    base = b0 + b1 + b2
+    base, count = 0, 1
+    for d in range(3):
+        first, m = axis_stencil((x[p, d] - origin[d]) * inv_h, kind, lp, axes[3 * d],
+                                axes[3 * d + 1], axes[3 * d + 2])
+        for j in range(m):
+            axes[3 * d + 1, j] *= inv_h
+        base += (first - lo[d]) * strides[d]
+        count = m
+    wx, dx, wy, dy, wz, dz = axes[0], axes[1], axes[3], axes[4], axes[6], axes[7]
     k = 0
-    for a in range(2):
-        wx = r0 if a else 1.0 - r0
-        dx = inv_h if a else -inv_h
-        for b in range(2):
-            wy = r1 if b else 1.0 - r1
-            dy = inv_h if b else -inv_h
-            for c in range(2):
-                wz = r2 if c else 1.0 - r2
-                dz = inv_h if c else -inv_h
+    for a in range(count):
+        for b in range(count):
+            for c in range(count):
                 nodes[k] = base + a * strides[0] + b * strides[1] + c * strides[2]
-                w[k] = wx * wy * wz
-                gx[k] = dx * wy * wz
-                gy[k] = wx * dy * wz
-                gz[k] = wx * wy * dz
+                w[k] = wx[a] * wy[b] * wz[c]
+                gx[k] = dx[a] * wy[b] * wz[c]
+                gy[k] = wx[a] * dy[b] * wz[c]
+                gz[k] = wx[a] * wy[b] * dz[c]
                 k += 1
+    return k

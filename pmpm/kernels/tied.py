@@ -1,6 +1,7 @@
 """The tied interface between a refined window and the coarse grid (seed 000 Secs. 3.1-3.2).
 
-A window node on one of the window's faces is a *slave* candidate. It lies on the face,
+A window node on one of the window's faces (or beyond one, where 27-node shape functions
+reach past the window's edge) is a *slave* candidate. It lies on the face,
 edge or corner of the coarse cells around it; its *master* nodes are the nodes of that
 coarse entity, with the coarse trilinear weights at the slave's position (on a face they
 are the bilinear phi_m of Eq. 19; on an edge they are linear, at a coarse node 1). The
@@ -52,8 +53,10 @@ def mark_occupied(x, level, origin, inv_h, lo, strides, occupied):
 
 @njit(cache=True)
 def find_ties(block, face_lo, face_hi, ratio, coarse, occupied, ties):
-    """Tied slave nodes of a window block. ``block``: the window's NodeBlock (level node
-    indices); ``face_lo, face_hi``: level node index of the window's faces; ``coarse``:
+    """Tied slave nodes of a window block: nodes on the window's faces and, where the
+    shape functions reach beyond them (``pmpm.kernels.shape``), outside them. ``block``:
+    the window's NodeBlock (level node indices); ``face_lo, face_hi``: level node index
+    of the window's faces; ``coarse``:
     the coarse NodeBlock. Fills the first rows of ``ties`` (a TieSet's ``slaves``,
     ``masters``, ``weights``) and returns how many."""
     shape, lo, strides = block.shape, block.lo, block.strides
@@ -67,7 +70,7 @@ def find_ties(block, face_lo, face_hi, ratio, coarse, occupied, ties):
                 g[0], g[1], g[2] = lo[0] + i, lo[1] + j, lo[2] + k
                 on_face = False
                 for d in range(3):
-                    if g[d] == face_lo[d] or g[d] == face_hi[d]:
+                    if g[d] <= face_lo[d] or g[d] >= face_hi[d]:
                         on_face = True
                 if not on_face:
                     continue

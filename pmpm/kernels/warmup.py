@@ -19,7 +19,7 @@ def warm_up():
     refresh_inlined_caches()
     lo, strides, shape = np.zeros(3, np.int64), np.array([4, 2, 1], np.int64), np.full(3, 2, np.int64)
     n_cells = np.ones(3, np.int64)
-    geo = GridGeometry(np.zeros(3), 1.0, lo, strides)
+    geo = GridGeometry(np.zeros(3), 1.0, lo, strides, 0, np.full(1, 0.25))
     block = NodeBlock(shape, lo, strides, n_cells, np.zeros(6, np.int64), np.zeros(8, np.uint8))
     pts = PointState(np.full((1, 3), 0.5), np.zeros((1, 3)), np.ones(1),
                      np.zeros(1, np.int32), np.zeros(1, np.int32))

@@ -19,6 +19,8 @@ class BodyTable:
         for i, body in enumerate(bodies):
             self.codes[i], self.params[i] = catalog.pack(config.materials[body.material])
         self.rigid = (self.codes == layout.RIGID)
+        #: the particles' uGIMP half-width in cells: half the lattice spacing
+        self.half_width = np.array([0.5 / b.particles_per_cell for b in bodies])
 
     def initial_wave_speed(self, body_index):
         """sqrt((K + 4G/3)/rho0), or the EOS sound speed where larger (or the only one)."""

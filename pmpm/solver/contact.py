@@ -156,14 +156,14 @@ class ContactFields:
     def _plane_slot_ranges(self, block):
         per_plane = block.n_nodes // max(int(block.shape[block.slab_axis]), 1)
         ranges = {}
-        for _, index in block.shared_planes:
-            first, last = index * per_plane, (index + 1) * per_plane
-            ranges[index] = (int(np.searchsorted(self.slot_nodes, first)),
-                             int(np.searchsorted(self.slot_nodes, last)))
+        for _, span in block.shared_planes:
+            first, last = span[0] * per_plane, span[1] * per_plane
+            ranges[span] = (int(np.searchsorted(self.slot_nodes, first)),
+                            int(np.searchsorted(self.slot_nodes, last)))
         return ranges
 
     def sum_on_shared_planes(self, block, array):
-        views = {index: array[a:b] for index, (a, b) in self.plane_slots.items()}
+        views = {span: array[a:b] for span, (a, b) in self.plane_slots.items()}
         sum_shared_planes(self.world, block.shared_planes, views)
 
     def slot_array(self, name, width, n_bodies, zero=True):

@@ -73,15 +73,14 @@ class TiedInterface(Coupling):
         return occupied
 
     def find_ties(self, window, coarse, occupied):
-        shape = window.block.shape
-        faces = 2 * (shape[0] * shape[1] + shape[1] * shape[2] + shape[0] * shape[2])
+        face_lo, face_hi = window.level.window_faces()
+        faces = window.block.n_nodes - interior_nodes(window.block, face_lo, face_hi)
         slaves, masters, weights = self.buffers.get(window.index, (np.zeros(0, np.int64),) * 3)
         if len(slaves) < faces:
             slaves = np.empty(faces, np.int64)
             masters = np.empty((faces, 8), np.int64)
             weights = np.empty((faces, 8))
             self.buffers[window.index] = slaves, masters, weights
-        face_lo, face_hi = window.level.window_faces()
         ties = TieSet(slaves, masters, weights, 0)
         count = tied.find_ties(window.nodes, face_lo, face_hi, window.level.ratio,
                                coarse.nodes, occupied, ties)
@@ -98,3 +97,10 @@ class TiedInterface(Coupling):
     def after_integrate(self, grids, dt):
         for w in grids.windows:
             tied.masters_to_slaves(w.ties, grids.coarse.gnew, w.gnew)
+
+
+def interior_nodes(block, face_lo, face_hi):
+    """How many nodes of ``block`` lie strictly inside the window faces."""
+    first = np.maximum(block.lo, face_lo + 1)
+    last = np.minimum(block.lo + block.shape - 1, face_hi - 1)
+    return int(np.prod(np.maximum(last - first + 1, 0)))

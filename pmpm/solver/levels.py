@@ -16,8 +16,9 @@ class LevelState:
     kernels take: ``geometry`` (GridGeometry) and ``nodes`` (NodeBlock). ``ties`` holds
     a window's tied slaves (set by the tied interface; None on the coarse grid)."""
 
-    def __init__(self, index, level):
+    def __init__(self, index, level, shape, half_width):
         self.index, self.level = index, level
+        self.shape, self.half_width = shape, half_width
         self.work = Workspace()
         self.ties = None
         self.block = None
@@ -26,7 +27,8 @@ class LevelState:
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
         lv = self.level
-        self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides)
+        self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides, self.shape,
+                                     self.half_width)
         if len(self.faces) < b.n_nodes:
             self.faces = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.uint8)
         faces = self.faces[:b.n_nodes]
@@ -35,12 +37,16 @@ class LevelState:
 
 
 class Hierarchy:
-    """The levels of one rank: the coarse grid first, then the windows."""
+    """The levels of one rank: the coarse grid first, then the windows; every level uses
+    the shape functions ``shape`` (``pmpm.kernels.shape`` code) with the bodies' uGIMP
+    ``half_width`` (cells)."""
 
-    def __init__(self, grid_levels, world):
+    def __init__(self, grid_levels, world, shape=0, half_width=None):
         self.world = world
         self.levels = list(grid_levels)
-        self.states = [LevelState(i, level) for i, level in enumerate(self.levels)]
+        half_width = np.zeros(1) if half_width is None else half_width
+        self.states = [LevelState(i, level, shape, half_width)
+                       for i, level in enumerate(self.levels)]
         self.coarse = self.states[0]
         self.windows = self.states[1:]
 

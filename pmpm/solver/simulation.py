@@ -4,6 +4,7 @@ import numpy as np
 
 from ..comm.slabs import Slabs, choose_slabs
 from ..grid import CoarseGrid, Level, Window
+from ..kernels.shape import HALO, SHAPE_CODES
 from ..particles import Particles
 from .bodies import BodyTable, assign_loads, build_particles, fill_positions
 from .contact import ContactRules, GridContact
@@ -28,7 +29,9 @@ class Simulation:
         mean_mass = world.sum(float(particles.mass.sum())) / n_total
         m_tiny = 1e-12 * mean_mass
         self.windows = make_windows(config.grid, grid, bodies.names)
-        self.grids = Hierarchy([Level(grid)] + [Level(grid, w) for w in self.windows], world)
+        shape = SHAPE_CODES[config.grid.shape_functions]
+        levels = [Level(grid, w, HALO[shape]) for w in [None] + self.windows]
+        self.grids = Hierarchy(levels, world, shape, bodies.half_width)
         self.points = ParticleBodies(particles, bodies, config.gravity, config.time.pic)
         self.kinds = [self.points]
         self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows)
