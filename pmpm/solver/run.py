@@ -31,7 +31,7 @@ class Schedule:
 class Runner:
     """Drives a :class:`Simulation` to ``time.end`` and writes the run contract's files."""
 
-    def __init__(self, sim, out_dir, case_text, progress=True, restart=None):
+    def __init__(self, sim, out_dir, case_text, progress=True, restart=None, case=None):
         self.sim, self.world, self.out = sim, sim.world, out_dir
         self.config = sim.config
         self.end = float(self.config.time.end)
@@ -40,6 +40,7 @@ class Runner:
         self.output = self.config.output
         self.schedule = Schedule(self.output, self.end)
         self.case_text = case_text
+        self.case = case            # the validated case dict, kept in every checkpoint
         self.progress = Progress(self.end, progress and self.output.progress and
                                  self.world.is_root)
         self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root)
@@ -182,7 +183,9 @@ class Runner:
                    "frame_index": self.frame_index, "step_wall": self.step_wall,
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    **sim.restart_state()}
-        io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
+        case = None if self.case is None else {"text": self.case_text, "case": self.case}
+        io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
+                           case=case)
         self.last_checkpoint = sim.step_count
 
     def finish(self, dt):
