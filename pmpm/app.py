@@ -101,9 +101,29 @@ def _check_output(out, force, restart, case_path=None):
 
 
 def choose_checkpoint(world, out):
-    """The newest checkpoint in ``out`` (collective; rank 0 decides)."""
-    from .io import latest_checkpoint
-    return world.bcast(latest_checkpoint(out) if world.is_root else None)
+    """The newest checkpoint in ``out`` that can be read (collective; rank 0 decides).
+
+    A newer one that cannot (truncated, overwritten) is passed over with a one-line
+    warning naming it; none readable is an InputError."""
+    chosen, bad = None, []
+    if world.is_root:
+        from .io.checkpoint import checkpoint_problem, list_checkpoints
+        found = [path for _, path in reversed(list_checkpoints(out))]
+        for k, path in enumerate(found):
+            problem = checkpoint_problem(path)
+            if problem is None:
+                chosen = path
+                break
+            bad.append(f"{os.path.basename(path)}: {problem}")
+            if k + 1 < len(found):
+                sys.stderr.write(f"pmpm: warning: --restart: checkpoint '{path}' cannot be "
+                                 f"read ({problem}); trying the one before it\n")
+                sys.stderr.flush()
+    chosen, bad = world.bcast((chosen, bad))
+    if chosen is None:
+        raise InputError([f"--restart: no readable checkpoint in '{out}' ("
+                          + "; ".join(bad) + ")"])
+    return chosen
 
 
 def check_restart_case(world, checkpoint, case, case_text):

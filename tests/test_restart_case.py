@@ -7,9 +7,11 @@ import os
 import h5py
 import pytest
 
-from clihelp import BAR, BAR_HALF_END, pmpm, pmpm_lines, run_ok
+from clihelp import (BAR, BAR_HALF_END, assert_same_state, frame, frame_list, pmpm,
+                     pmpm_lines, run_ok)
 from pmpm.case.compare import differences, may_change_on_restart, restart_changes
 from pmpm.io import latest_checkpoint, read_checkpoint_case
+from pmpm.io.checkpoint import checkpoint_problem
 
 
 @pytest.fixture(scope="module")
@@ -118,3 +120,65 @@ def test_allowed_changes_are_noted_beside_the_original_text(cut, tmp_path):
         "output.history_every: 5 -> 3\n")
     # the next restart compares with the case as continued, and keeps both notes
     assert read_checkpoint_case(latest_checkpoint(out))["text"] == after
+
+
+# -- a corrupt newest checkpoint -------------------------------------------------------
+
+def truncate(path):
+    size = os.path.getsize(path)
+    with open(path, "r+b") as f:
+        f.truncate(size // 2)
+
+
+def overwrite_header(path):
+    with open(path, "r+b") as f:
+        f.write(b"\0" * 4096)
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    out = tmp_path_factory.mktemp("restart_case") / "full"
+    run_ok([BAR, "--out", out, "--quiet"])
+    return out
+
+
+@pytest.mark.parametrize("damage", [truncate, overwrite_header])
+def test_a_damaged_newest_checkpoint_falls_back_to_the_one_before(cut, uninterrupted,
+                                                                    tmp_path, damage):
+    out = copy_of(cut, tmp_path)
+    bad = out / "checkpoint_000024.h5"
+    assert sorted(n for n in os.listdir(out) if n.startswith("checkpoint_")) == [
+        "checkpoint_000020.h5", "checkpoint_000024.h5"]
+    damage(bad)
+    done = run_ok([BAR, "--out", out, "--quiet", "--restart", "--set", "time.end=0.005"],
+                  ranks=2)
+    lines = pmpm_lines(done.stderr)
+    assert len(lines) == 1 and lines[0].startswith(
+        f"pmpm: warning: --restart: checkpoint '{bad}' cannot be read ("), lines
+    assert lines[0].endswith("); trying the one before it")
+    assert_same_state(frame(uninterrupted), frame(out), 1e-12)
+    assert frame_list(out) == frame_list(uninterrupted)
+    assert not bad.exists() or checkpoint_problem(bad) is None  # replaced by the run
+
+
+def test_no_readable_checkpoint_is_one_error(cut, tmp_path):
+    out = copy_of(cut, tmp_path)
+    truncate(out / "checkpoint_000024.h5")
+    overwrite_header(out / "checkpoint_000020.h5")
+    done = pmpm([BAR, "--out", out, "--restart", "--set", "time.end=0.005"], ranks=2)
+    assert done.returncode == 2, done.stderr
+    lines = [line for line in pmpm_lines(done.stderr) if "error" in line]
+    assert len(lines) == 1 and lines[0].startswith(
+        f"pmpm: error: --restart: no readable checkpoint in '{out}' "
+        "(checkpoint_000024.h5: "), lines
+    assert "checkpoint_000020.h5: " in lines[0] and "Traceback" not in done.stderr
+
+
+def test_checkpoints_are_written_beside_and_renamed(cut):
+    """Atomic: a checkpoint goes to a .tmp file that is renamed once complete, and no
+    temporary is left behind."""
+    names = os.listdir(cut)
+    assert not [n for n in names if ".tmp" in n], names
+    for name in names:
+        if name.startswith("checkpoint_"):
+            assert checkpoint_problem(cut / name) is None

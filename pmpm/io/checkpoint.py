@@ -163,3 +163,32 @@ def read_checkpoint_case(path):
         raw = f["case"][()]
     return json.loads(raw.decode("utf-8") if isinstance(raw, bytes) else raw)
 
+
+def checkpoint_problem(path):
+    """Why the checkpoint at ``path`` cannot be restarted from (a short phrase), or None.
+
+    Not collective (rank 0 asks before every rank reads). It opens the file, parses the
+    scalars, and checks that every column has ``n_total`` rows stored within the file, so
+    a truncated or overwritten file is found before any rank reads it; the values
+    themselves carry no checksum."""
+    try:
+        size = os.path.getsize(path)
+        with h5py.File(os.fspath(path), "r") as f:
+            scalars = json.loads(f.attrs["scalars"])
+            if not isinstance(scalars, dict) or "step" not in scalars:
+                return "its scalars have no step"
+            total = int(f.attrs["n_total"])
+            columns = f["columns"]
+            if "x" not in columns:
+                return "it has no positions"
+            for name, dset in columns.items():
+                if dset.shape[:1] != (total,):
+                    return f"column {name} has {dset.shape[:1]} rows, expected {total}"
+                offset = dset.id.get_offset()
+                if total and (offset is None or offset + dset.id.get_storage_size() > size):
+                    return f"column {name} lies beyond the end of the file (truncated)"
+            if "case" in f:
+                f["case"][()]
+    except (OSError, KeyError, ValueError, TypeError) as err:
+        return str(err).splitlines()[0] if str(err) else type(err).__name__
+    return None
