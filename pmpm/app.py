@@ -30,11 +30,13 @@ def run_case(world, args):
     from .solver.run import Runner
     return_freed_memory_to_os()
     before_setup = current_rss_bytes()
-    setup = begin_set_up(world, config, args, checkpoint)
+    setup = begin_set_up(world, config, args, checkpoint, out)
     before_compile = current_rss_bytes()
     compile_s = world.max(warm_up())
     baseline = before_setup + current_rss_bytes() - before_compile
-    sim, restart = setup()
+    sim, restart, size = setup()
+    if size and not args.quiet:
+        print(size, flush=True)
     runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart, case=case)
     runner.run(compile_s=compile_s, baseline_rss=baseline)
     return os.path.join(out, "summary.json")
@@ -152,24 +154,31 @@ def check_restart_case(world, checkpoint, case, case_text):
     return text
 
 
-def begin_set_up(world, config, args, checkpoint):
+def begin_set_up(world, config, args, checkpoint, out):
     """What can be checked before the kernels compile (the checkpoint, the bodies'
-    positions and the slab decomposition), so that a bad input fails in a second;
+    positions, the slab decomposition, the run's size against time.max_steps and the
+    free disk space), so that a bad input fails in a second;
     returns a function that finishes the set-up and gives (simulation, checkpoint
-    scalars or None)."""
+    scalars or None, the line that tells the run's estimated size on rank 0)."""
     from .case import fill_body
     from .solver.simulation import Simulation
+    from .solver.estimate import check_size, initial_speed
     if args.restart:
         scalars, columns = read_checkpoint(world, checkpoint)
         end = float(config.time.end)
         if scalars["time"] > end * (1 + 1e-12):
             raise InputError([f"time.end: {end:g} is before the checkpoint's time "
                               f"{scalars['time']:g}; --set a later time.end to continue"])
+        size = _set_up(check_size, world, config, world.sum(len(columns["x"])),
+                       lambda: scalars["fastest"], out, scalars["time"], False)
         return lambda: (_set_up(Simulation.from_checkpoint, world, config, scalars, columns),
-                        scalars)
+                        scalars, size)
     case_dir = os.path.dirname(os.path.abspath(args.case))
     layout = _set_up(Simulation.lay_out, world, config, case_dir, fill_body)
-    return lambda: (_set_up(Simulation.from_layout, world, config, layout), None)
+    filled = layout[1]
+    size = _set_up(check_size, world, config, sum(len(v) for _, v in filled),
+                   lambda: initial_speed(config, filled), out, 0.0, True)
+    return lambda: (_set_up(Simulation.from_layout, world, config, layout), None, size)
 
 
 def _set_up(build, *args):

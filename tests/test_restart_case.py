@@ -75,8 +75,8 @@ def test_a_changed_material_is_refused_and_the_case_text_kept(cut, tmp_path):
     assert done.returncode == 2, done.stderr
     assert pmpm_lines(done.stderr) == [
         "pmpm: error: materials.copper.density: changed since the checkpoint "
-        "(0.00893 -> 0.009); --restart may change only time.end, output.*, "
-        "decomposition.*, title"]
+        "(0.00893 -> 0.009); --restart may change only time.end, time.max_steps, "
+        "output.*, decomposition.*, title"]
     assert "Traceback" not in done.stderr
     assert case_text(out) == before
     assert sorted(os.listdir(out)) == sorted(os.listdir(cut))
@@ -105,7 +105,7 @@ def test_an_added_body_is_refused(cut, tmp_path):
     assert done.returncode == 2, done.stderr
     assert pmpm_lines(done.stderr) == [
         "pmpm: error: bodies[1]: changed since the checkpoint (added ({...})); --restart "
-        "may change only time.end, output.*, decomposition.*, title"]
+        "may change only time.end, time.max_steps, output.*, decomposition.*, title"]
 
 
 def test_allowed_changes_are_noted_beside_the_original_text(cut, tmp_path):

@@ -109,6 +109,7 @@ class TimeConfig:
     dt_max: float | None
     pic: float
     scheme: str
+    max_steps: float
 
 
 @mirrors(OUTPUT)

@@ -43,6 +43,11 @@ TIME = {
                         "from the new particle velocities mapped back to the grid: one more "
                         "particle-to-grid pass, and it resists the cell-crossing instability "
                         "of soft bodies with free surfaces"),
+    "max_steps": Field(number(greater(0)), 1e8, "steps",
+                       "the most time steps a run may take, estimated before it starts as "
+                       "(end - start) / first time step: a case that needs more is refused, "
+                       "so that a wrong speed or end time does not start a run that cannot "
+                       "finish; raise it for a run meant to be that long"),
 }
 OUTPUT = {
     "frames": Field(integer(at_least(1)), 10,
