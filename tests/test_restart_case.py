@@ -9,7 +9,8 @@ import pytest
 
 from clihelp import (BAR, BAR_HALF_END, assert_same_state, frame, frame_list, pmpm,
                      pmpm_lines, run_ok)
-from pmpm.case.compare import differences, may_change_on_restart, restart_changes
+from pmpm.case.compare import (differences, may_change_on_restart, may_change_text,
+                               restart_changes)
 from pmpm.io import latest_checkpoint, read_checkpoint_case
 from pmpm.io.checkpoint import checkpoint_problem
 
@@ -76,7 +77,7 @@ def test_a_changed_material_is_refused_and_the_case_text_kept(cut, tmp_path):
     assert pmpm_lines(done.stderr) == [
         "pmpm: error: materials.copper.density: changed since the checkpoint "
         "(0.00893 -> 0.009); --restart may change only time.end, time.max_steps, "
-        "output.*, decomposition.*, title"]
+        "grid.lost_mass_fraction, output.*, decomposition.*, title"]
     assert "Traceback" not in done.stderr
     assert case_text(out) == before
     assert sorted(os.listdir(out)) == sorted(os.listdir(cut))
@@ -105,7 +106,7 @@ def test_an_added_body_is_refused(cut, tmp_path):
     assert done.returncode == 2, done.stderr
     assert pmpm_lines(done.stderr) == [
         "pmpm: error: bodies[1]: changed since the checkpoint (added ({...})); --restart "
-        "may change only time.end, time.max_steps, output.*, decomposition.*, title"]
+        f"may change only {may_change_text()}"]
 
 
 def test_allowed_changes_are_noted_beside_the_original_text(cut, tmp_path):

@@ -11,8 +11,8 @@ import json
 MISSING = object()   # a key or list item on one side only
 
 #: Key paths (and the prefixes of whole sections, ending in ".") a restart may change.
-RESTART_MAY_CHANGE = ("time.end", "time.max_steps", "output.", "decomposition.", "title",
-                      "params.")
+RESTART_MAY_CHANGE = ("time.end", "time.max_steps", "grid.lost_mass_fraction", "output.",
+                      "decomposition.", "title", "params.")
 
 
 def may_change_text():

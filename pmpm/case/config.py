@@ -153,6 +153,7 @@ class GridConfig:
     cell: float
     boundary: ReadOnlyDict
     windows: tuple
+    lost_mass_fraction: float
 
     @classmethod
     def from_case(cls, grid):

@@ -157,6 +157,12 @@ GRID = {
                       doc="the condition on each face of the grid box"),
     "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],
                      doc="refined sub-grids tied to the coarse grid (seed 000 Secs. 3-4)"),
+    "lost_mass_fraction": Field(number(at_least(0), at_most(1)), 0.0, "1",
+                                "share of each body's initial mass that may leave the grid "
+                                "box (its particles are dropped, and counted in the progress "
+                                "lines and summary.json); more stops the run with a fault "
+                                "naming the body. 0: the first particle to leave stops it; "
+                                "perforation cases allow a little for fragments"),
 }
 read_grid = Checked(mapping(GRID), _check_grid)
 CASE_FILE_NAME = Marker("the case file's name without .yaml")
