@@ -18,36 +18,43 @@ class InputError(Exception):
 
 def run_case(world, args):
     """Run the case of ``args`` on ``world``; returns the summary.json path."""
-    config, case_text = load_checked_case(args.case, args.overrides)
+    config, case_text, case = load_checked_case(args.case, args.overrides)
     out = args.out or os.path.join("results", _stem(args.case))
     prepare_output(world, out, args.force, args.restart, case_path=args.case)
+    checkpoint = None
+    if args.restart:
+        checkpoint = choose_checkpoint(world, out)
+        case_text = check_restart_case(world, checkpoint, case, case_text)
     from .kernels.warmup import warm_up
     from .solver.memory import current_rss_bytes, return_freed_memory_to_os
     from .solver.run import Runner
     return_freed_memory_to_os()
     before_setup = current_rss_bytes()
-    setup = begin_set_up(world, config, args, out)
+    setup = begin_set_up(world, config, args, checkpoint, out)
     before_compile = current_rss_bytes()
     compile_s = world.max(warm_up())
     baseline = before_setup + current_rss_bytes() - before_compile
-    sim, restart = setup()
-    runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart)
+    sim, restart, size = setup()
+    if size and not args.quiet:
+        print(size, flush=True)
+    runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart, case=case)
     runner.run(compile_s=compile_s, baseline_rss=baseline)
     return os.path.join(out, "summary.json")
 
 
 def load_checked_case(path, overrides):
-    """The case's CaseConfig and its text (with the overrides), or InputError."""
-    from .case import CaseError, load_config
+    """The case's CaseConfig, its text (with the overrides) and the validated case dict,
+    or InputError."""
+    from .case import CaseConfig, CaseError, load_case
     try:
-        config = load_config(path, overrides)
+        case = load_case(path, overrides)
     except CaseError as err:
         raise InputError(err.problems) from None
     with open(path, encoding="utf-8") as f:
         text = f.read()
     if overrides:
         text += "\n# --set " + " --set ".join(overrides) + "\n"
-    return config, text
+    return CaseConfig.from_case(case), text, case
 
 
 def prepare_output(world, out, force, restart, case_path=None):
@@ -95,24 +102,83 @@ def _check_output(out, force, restart, case_path=None):
     return None
 
 
-def begin_set_up(world, config, args, out):
+def choose_checkpoint(world, out):
+    """The newest checkpoint in ``out`` that can be read (collective; rank 0 decides).
+
+    A newer one that cannot (truncated, overwritten) is passed over with a one-line
+    warning naming it; none readable is an InputError."""
+    chosen, bad = None, []
+    if world.is_root:
+        from .io.checkpoint import checkpoint_problem, list_checkpoints
+        found = [path for _, path in reversed(list_checkpoints(out))]
+        for k, path in enumerate(found):
+            problem = checkpoint_problem(path)
+            if problem is None:
+                chosen = path
+                break
+            bad.append(f"{os.path.basename(path)}: {problem}")
+            if k + 1 < len(found):
+                sys.stderr.write(f"pmpm: warning: --restart: checkpoint '{path}' cannot be "
+                                 f"read ({problem}); trying the one before it\n")
+                sys.stderr.flush()
+    chosen, bad = world.bcast((chosen, bad))
+    if chosen is None:
+        raise InputError([f"--restart: no readable checkpoint in '{out}' ("
+                          + "; ".join(bad) + ")"])
+    return chosen
+
+
+def check_restart_case(world, checkpoint, case, case_text):
+    """The case text a restarted run keeps: the checkpoint's (its run's original text),
+    with a comment listing the changes ``--restart`` accepts. A change to any other key
+    is an InputError naming each (collective; rank 0 reads the checkpoint)."""
+    result = None
+    if world.is_root:
+        from .case.compare import may_change_text, restart_changes
+        from .io import read_checkpoint_case
+        stored = read_checkpoint_case(checkpoint)
+        if stored is None:              # a checkpoint from before they kept their case
+            result = ([], case_text)
+        else:
+            refused, allowed = restart_changes(stored["case"], case)
+            text = stored["text"]
+            if allowed:
+                text = text.rstrip("\n") + "\n# --restart from " + os.path.basename(
+                    checkpoint) + ": " + "; ".join(f"{path}: {change}"
+                                                   for path, change in allowed) + "\n"
+            result = ([f"{path}: changed since the checkpoint ({change}); --restart may "
+                       f"change only {may_change_text()}" for path, change in refused], text)
+    problems, text = world.bcast(result)
+    if problems:
+        raise InputError(problems)
+    return text
+
+
+def begin_set_up(world, config, args, checkpoint, out):
     """What can be checked before the kernels compile (the checkpoint, the bodies'
-    positions and the slab decomposition), so that a bad input fails in a second;
+    positions, the slab decomposition, the run's size against time.max_steps and the
+    free disk space), so that a bad input fails in a second;
     returns a function that finishes the set-up and gives (simulation, checkpoint
-    scalars or None)."""
+    scalars or None, the line that tells the run's estimated size on rank 0)."""
     from .case import fill_body
     from .solver.simulation import Simulation
+    from .solver.estimate import check_size, initial_speed
     if args.restart:
-        scalars, columns = read_checkpoint(world, out)
+        scalars, columns = read_checkpoint(world, checkpoint)
         end = float(config.time.end)
         if scalars["time"] > end * (1 + 1e-12):
             raise InputError([f"time.end: {end:g} is before the checkpoint's time "
                               f"{scalars['time']:g}; --set a later time.end to continue"])
+        size = _set_up(check_size, world, config, world.sum(len(columns["x"])),
+                       lambda: scalars["fastest"], out, scalars["time"], False)
         return lambda: (_set_up(Simulation.from_checkpoint, world, config, scalars, columns),
-                        scalars)
+                        scalars, size)
     case_dir = os.path.dirname(os.path.abspath(args.case))
     layout = _set_up(Simulation.lay_out, world, config, case_dir, fill_body)
-    return lambda: (_set_up(Simulation.from_layout, world, config, layout), None)
+    filled = layout[1]
+    size = _set_up(check_size, world, config, sum(len(v) for _, v in filled),
+                   lambda: initial_speed(config, filled), out, 0.0, True)
+    return lambda: (_set_up(Simulation.from_layout, world, config, layout), None, size)
 
 
 def _set_up(build, *args):
@@ -123,10 +189,9 @@ def _set_up(build, *args):
         raise InputError(err.problems) from None
 
 
-def read_checkpoint(world, out):
-    """Scalars and this rank's share of the newest checkpoint in ``out`` (collective)."""
-    from .io import latest_checkpoint, load_checkpoint
-    path = world.bcast(latest_checkpoint(out) if world.is_root else None)
+def read_checkpoint(world, path):
+    """Scalars and this rank's share of the checkpoint at ``path`` (collective)."""
+    from .io import load_checkpoint
     try:
         return load_checkpoint(path, world.raw)
     except (OSError, KeyError, ValueError) as err:

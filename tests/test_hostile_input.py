@@ -1,5 +1,6 @@
-"""Hostile or malformed case files (issue 17): an alias bomb, a NUL byte and bytes that are
-not UTF-8 are refused quickly with one line naming the file (exit 2), on 1 and 2 ranks."""
+"""Hostile or malformed case files (issue 17): an alias bomb, collections nested too deep
+(in the text, through aliases, in a --set value), a NUL byte and bytes that are not UTF-8
+are refused quickly with one line naming the file (exit 2), on 1 and 2 ranks."""
 import glob
 import os
 import subprocess
@@ -107,3 +108,58 @@ def test_control_character_is_a_syntax_error(tmp_path):
     path.write_bytes(b"a: 1\nb: ab\x01c\n")
     with pytest.raises(CaseError, match=r"ctrl\.yaml: YAML syntax error: unacceptable"):
         load_case(path)
+
+
+# -- deep nesting: PyYAML composes recursively -------------------------------------------
+
+def test_ten_thousand_nested_brackets_exit_2_with_one_line(tmp_path):
+    path = bar_with(tmp_path, b"junk: " + b"[" * 10000 + b"]" * 10000 + b"\n")
+    done = pmpm([path, "--out", tmp_path / "out"], ranks=2, timeout=30)
+    assert done.returncode == 2, done.stderr
+    assert pmpm_lines(done.stderr) == [
+        f"pmpm: error: {path}:35:106: YAML collections nested more than 100 deep; "
+        "refusing to load"]
+    assert "Traceback" not in done.stderr and "RecursionError" not in done.stderr
+
+
+@pytest.mark.parametrize("text, where", [
+    ("a:\n" + "".join("  " * i + "b:\n" for i in range(1, 3000)) + "  " * 3000 + "1\n",
+     "101:201"),
+    ("a: " + "{b: " * 5000 + "1" + "}" * 5000 + "\n", "1:400"),
+    ("- " * 4000 + "1\n", "1:201"),
+])
+def test_deep_mappings_and_sequences_are_refused(tmp_path, text, where):
+    path = tmp_path / "deep.yaml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(CaseError) as err:
+        load_case(path)
+    assert err.value.problems == [
+        f"{path}:{where}: YAML collections nested more than 100 deep; refusing to load"]
+
+
+def test_aliases_nesting_deep_are_refused(tmp_path):
+    """300 anchors, each a list holding the one before: 45,000 nodes expanded (under the
+    alias limit) but 300 deep."""
+    lines = ["a0: &a0 [1]"] + [f"a{i}: &a{i} [*a{i - 1}]" for i in range(1, 300)]
+    path = tmp_path / "chain.yaml"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(CaseError) as err:
+        load_case(path)
+    assert err.value.problems == [
+        f"{path}: YAML aliases nest collections more than 100 deep; refusing to load"]
+
+
+def test_a_deep_set_value_is_refused():
+    with pytest.raises(CaseError) as err:
+        load_case(BAR, ["params.cell=" + "[" * 2000 + "]" * 2000])
+    assert err.value.problems[0].endswith("YAML collections nested more than 100 deep; "
+                                          "refusing to load")
+
+
+def test_fifty_levels_still_load(tmp_path):
+    path = bar_with(tmp_path, b"junk: " + b"[" * 50 + b"]" * 50 + b"\n")
+    with pytest.raises(CaseError) as err:
+        load_case(path)
+    assert err.value.problems == [
+        "junk: unknown key (allowed: title, params, grid, gravity, materials, bodies, loads, "
+        "time, output, decomposition, contact)"]

@@ -60,15 +60,18 @@ def test_frames_round_trip(tmp_path):
                 np.testing.assert_array_equal(group[name][()], array)
 
 
-def test_empty_frame_is_written_and_left_out_of_xdmf(tmp_path):
+def test_empty_frame_is_written_and_listed_in_the_xdmf_without_data(tmp_path):
     empty = {name: array[:0] for name, array in particle_columns(3).items()}
-    writer = write_frames(tmp_path, [(0.0, 0, particle_columns(3)), (1.0, 5, empty)])
+    writer = write_frames(tmp_path, [(0.0, 0, particle_columns(3)), (1.0, 5, empty),
+                                     (2.0, 9, particle_columns(2))])
     writer.close()
     with h5py.File(tmp_path / "particles.h5", "r") as f:
         assert f["frames/000001/x"].shape == (0, 3)
         assert f["frames/000001"].attrs["n"] == 0
     grids = ET.parse(tmp_path / "particles.xdmf").getroot().findall("./Domain/Grid/Grid")
-    assert len(grids) == 1
+    assert [g.find("Time").get("Value") for g in grids] == ["0.0", "1.0", "2.0"]
+    assert [g.get("GridType") for g in grids] == ["Uniform", "Collection", "Uniform"]
+    assert grids[1].get("CollectionType") == "Spatial" and len(list(grids[1])) == 1
 
 
 def _dims(item):

@@ -1,8 +1,11 @@
 """Validation of ``bodies:`` (geometry, rotation, particles per cell, velocity) and the
-checks that need the filled particles (inside the grid box, not empty, mesh readable)."""
+checks that need the filled particles (inside the grid box, not empty, mesh readable,
+no two bodies overlapping)."""
 import math
 import os
 import re
+
+import numpy as np
 
 from .errors import join
 from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, FieldNumber,
@@ -10,7 +13,7 @@ from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, FieldNumbe
                      valid, mapping, number, text, vector)
 from .fill import fill_geometry
 from .mesh import MeshReadError
-from .shapes import AXES, nose_length, reference_point
+from .shapes import AXES, make_shape, nose_length, reference_point, rotation_matrix
 
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -152,8 +155,9 @@ CHECKS = {"box": check_min_below_max, "cylinder": _check_cylinder, "sphere": lam
 
 
 def check_bodies_in_grid(bodies, grid, case_dir, problems):
-    """Fill every valid body; report unreadable meshes, empty bodies and bodies that
-    extend outside the grid box."""
+    """Fill every valid body; report unreadable meshes, empty bodies, bodies that
+    extend outside the grid box, and bodies that overlap."""
+    filled = {}
     for i, body in enumerate(bodies):
         if body is INVALID or has_invalid(body["geometry"], body["particles_per_cell"]):
             continue
@@ -166,6 +170,47 @@ def check_bodies_in_grid(bodies, grid, case_dir, problems):
                          f"cannot read {body['geometry']['file']!r}: {error}")
             continue
         _check_points(points, grid, body["particles_per_cell"], path, problems)
+        filled[i] = (points, grid["cell"] / body["particles_per_cell"])
+    check_overlaps(bodies, filled, problems)
+
+
+def _in_shape_frame(points, geometry):
+    """Points in the unrotated frame the geometry's shape is given in."""
+    rotate = geometry.get("rotate")
+    if not rotate:
+        return points
+    origin = np.asarray(rotate["origin"], float)
+    return origin + (points - origin) @ rotation_matrix(rotate["axis"], rotate["angle_deg"])
+
+
+def _inside(points, geometry):
+    """Which ``points`` lie inside the analytic ``geometry`` (None for a mesh)."""
+    if geometry["type"] == "mesh" or len(points) == 0:
+        return None
+    return make_shape(geometry).contains(_in_shape_frame(points, geometry))
+
+
+def check_overlaps(bodies, filled, problems):
+    """One problem per pair of bodies where particles of one lie inside the other's shape:
+    their mass would count twice there. ``filled`` maps a body's index to its particles'
+    positions and spacing. A mesh body's own shape is not tested (only the analytic
+    shapes of the others against its particles)."""
+    for j in sorted(filled):
+        for i in sorted(filled):
+            if i >= j:
+                break
+            for inner, outer in ((j, i), (i, j)):
+                points, spacing = filled[inner]
+                inside = _inside(points, bodies[outer]["geometry"])
+                count = 0 if inside is None else int(np.count_nonzero(inside))
+                if count:
+                    problems.add(
+                        join(join("bodies", j), "geometry"),
+                        f"body '{bodies[j]['name']}' overlaps body '{bodies[i]['name']}' "
+                        f"(bodies[{i}]): {count} particles of '{bodies[inner]['name']}' "
+                        f"(volume {count * spacing ** 3:.3g}) lie inside "
+                        f"'{bodies[outer]['name']}'; bodies may not overlap")
+                    break
 
 
 def check_mesh_files(bodies, case_dir, problems):

@@ -109,6 +109,7 @@ class TimeConfig:
     dt_max: float | None
     pic: float
     scheme: str
+    max_steps: float
 
 
 @mirrors(OUTPUT)
@@ -153,6 +154,7 @@ class GridConfig:
     shape_functions: str
     boundary: ReadOnlyDict
     windows: tuple
+    lost_mass_fraction: float
 
     @classmethod
     def from_case(cls, grid):

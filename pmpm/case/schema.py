@@ -43,6 +43,11 @@ TIME = {
                         "from the new particle velocities mapped back to the grid: one more "
                         "particle-to-grid pass, and it resists the cell-crossing instability "
                         "of soft bodies with free surfaces"),
+    "max_steps": Field(number(greater(0)), 1e8, "steps",
+                       "the most time steps a run may take, estimated before it starts as "
+                       "(end - start) / first time step: a case that needs more is refused, "
+                       "so that a wrong speed or end time does not start a run that cannot "
+                       "finish; raise it for a run meant to be that long"),
 }
 OUTPUT = {
     "frames": Field(integer(at_least(1)), 10,
@@ -158,6 +163,12 @@ GRID = {
                       doc="the condition on each face of the grid box"),
     "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],
                      doc="refined sub-grids tied to the coarse grid (seed 000 Secs. 3-4)"),
+    "lost_mass_fraction": Field(number(at_least(0), at_most(1)), 0.0, "1",
+                                "share of each body's initial mass that may leave the grid "
+                                "box (its particles are dropped, and counted in the progress "
+                                "lines and summary.json); more stops the run with a fault "
+                                "naming the body. 0: the first particle to leave stops it; "
+                                "perforation cases allow a little for fragments"),
 }
 read_grid = Checked(mapping(GRID), _check_grid)
 CASE_FILE_NAME = Marker("the case file's name without .yaml")

@@ -5,7 +5,9 @@ and a signed exponent). The case loader reads any decimal literal with an expone
 float. It also reports duplicate keys, which PyYAML would otherwise silently overwrite.
 
 Hostile input is refused with one line: aliases that would expand a document to more
-than ``ALIAS_LIMIT`` extra nodes (an "alias bomb"), NUL bytes and bytes that are not UTF-8.
+than ``ALIAS_LIMIT`` extra nodes (an "alias bomb"), collections nested more than
+``DEPTH_LIMIT`` deep, in the text or through aliases (PyYAML composes recursively, so 10000
+nested ``[`` raised RecursionError), NUL bytes and bytes that are not UTF-8.
 """
 import re
 
@@ -40,17 +42,33 @@ CaseLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_WITH_EXPONENT
                                  list("-+0123456789."))
 
 ALIAS_LIMIT = 100_000  # nodes that aliases may add to a document when expanded
+DEPTH_LIMIT = 100      # nested collections; a case file needs about 6
 
 
-def _expanded_size(node, sizes):
-    """Nodes in ``node`` with every alias expanded; ``sizes`` memoizes by node id.
-    A node that contains itself counts as infinitely large."""
-    key = id(node)
-    if key in sizes:
-        return sizes[key]
-    sizes[key] = float("inf")  # until finished: a cycle back here is unbounded
-    sizes[key] = 1 + sum(_expanded_size(child, sizes) for child in _children(node))
-    return sizes[key]
+def _measure(root):
+    """(nodes, depth, distinct nodes) of ``root`` with every alias expanded, without
+    recursion; a node that contains itself gives infinite nodes and depth."""
+    size, depth, on_path = {}, {}, set()
+    stack = [(root, False)]
+    while stack:
+        node, finished = stack.pop()
+        key = id(node)
+        if finished:
+            children = _children(node)
+            size[key] = 1 + sum(size[id(c)] for c in children)
+            depth[key] = 1 + max((depth[id(c)] for c in children), default=0)
+            on_path.discard(key)
+            continue
+        if key in size:
+            continue
+        on_path.add(key)
+        stack.append((node, True))
+        for child in _children(node):
+            if id(child) in on_path:
+                return float("inf"), float("inf"), len(size)
+            if id(child) not in size:
+                stack.append((child, False))
+    return size[id(root)], depth[id(root)], len(size)
 
 
 def _children(node):
@@ -62,11 +80,33 @@ def _children(node):
 
 
 def _check_aliases(node, source):
-    """CaseError when aliases would expand ``node`` by more than ALIAS_LIMIT nodes."""
-    sizes = {}
-    if node is not None and _expanded_size(node, sizes) - len(sizes) > ALIAS_LIMIT:
+    """CaseError when aliases would expand ``node`` by more than ALIAS_LIMIT nodes, or
+    nest it more than DEPTH_LIMIT deep."""
+    if node is None:
+        return
+    size, depth, distinct = _measure(node)
+    if size - distinct > ALIAS_LIMIT:
         raise CaseError([f"{source}: YAML aliases expand beyond the limit of "
                          f"{ALIAS_LIMIT} nodes; refusing to load"])
+    if depth > DEPTH_LIMIT + 1:          # + 1: scalars count as a level here
+        raise CaseError([f"{source}: YAML aliases nest collections more than "
+                         f"{DEPTH_LIMIT} deep; refusing to load"])
+
+
+def _check_nesting(text, source):
+    """CaseError naming the line and column where the text nests collections more than
+    DEPTH_LIMIT deep, before PyYAML composes it (recursively)."""
+    depth = 0
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        if isinstance(event, yaml.CollectionStartEvent):
+            depth += 1
+            if depth > DEPTH_LIMIT:
+                mark = event.start_mark
+                raise CaseError([f"{source}:{mark.line + 1}:{mark.column + 1}: YAML "
+                                 f"collections nested more than {DEPTH_LIMIT} deep; "
+                                 f"refusing to load"])
+        elif isinstance(event, yaml.CollectionEndEvent):
+            depth -= 1
 
 
 def parse_yaml(text, source):
@@ -80,6 +120,7 @@ def parse_yaml(text, source):
 
 
 def _load(text, source):
+    _check_nesting(text, source)
     loader = CaseLoader(text)  # raises ReaderError on control characters
     try:
         node = loader.get_single_node()

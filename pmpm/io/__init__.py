@@ -12,6 +12,7 @@ communicator). The names below are imported lazily: ``import pmpm.io`` loads not
 ``save_checkpoint``         ``DIR/checkpoint_NNNNNN.h5``, collective, atomic, rotated
 ``latest_checkpoint``       newest complete checkpoint in a directory, or None
 ``load_checkpoint``         scalars and an equal contiguous share of the rows on every rank
+``read_checkpoint_case``    the case a checkpoint's run was started with (rank 0)
 ==========================  ===============================================================
 """
 from importlib import import_module
@@ -25,6 +26,7 @@ _EXPORTS = {
     "save_checkpoint": "checkpoint",
     "latest_checkpoint": "checkpoint",
     "load_checkpoint": "checkpoint",
+    "read_checkpoint_case": "checkpoint",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -4,6 +4,8 @@ File layout of ``DIR/checkpoint_NNNNNN.h5`` (NNNNNN = step, at least six digits)
 
     /            attrs: scalars (JSON string), n_total, ranks
     /columns/    one dataset per particle column, rows of all ranks, in creation order
+    /case        scalar UTF-8 string (optional): JSON of the case the run was started
+                 with (``text``, its validated form ``case``), for ``--restart`` to compare
 
 Notes
 -----
@@ -20,6 +22,7 @@ import os
 import re
 
 import h5py
+import numpy as np
 
 from . import _collective as C
 from ._files import dumps, fsync_path
@@ -65,7 +68,7 @@ def _publish(tmp, final, keep):
         os.remove(path)
 
 
-def save_checkpoint(directory, comm, scalars, columns, keep=2):
+def save_checkpoint(directory, comm, scalars, columns, keep=2, case=None):
     """Write a checkpoint of every rank's particles collectively, atomically, and rotate.
 
     Parameters
@@ -85,6 +88,9 @@ def save_checkpoint(directory, comm, scalars, columns, keep=2):
     keep : int, optional
         Number of newest checkpoints to keep (default 2). Checkpoints of later steps than
         this one, left by an abandoned run after a restart, are deleted too.
+    case : dict, optional
+        JSON-able record of the case (rank 0's is stored as the ``/case`` dataset; see
+        :func:`read_checkpoint_case`).
 
     Returns
     -------
@@ -94,6 +100,7 @@ def save_checkpoint(directory, comm, scalars, columns, keep=2):
     if keep < 1:
         raise ValueError(f"keep must be at least 1, got {keep}")
     text = dumps(C.bcast_root(comm, scalars), allow_nan=True)
+    case_raw = None if case is None else dumps(C.bcast_root(comm, case)).encode("utf-8")
     final = checkpoint_path(directory, json.loads(text)["step"])
     tmp = final + ".tmp"
     os.makedirs(os.fspath(directory), exist_ok=True)
@@ -102,6 +109,10 @@ def save_checkpoint(directory, comm, scalars, columns, keep=2):
         f.attrs.update({"scalars": text, "n_total": layout.total, "ranks": comm.size})
         datasets = C.create_columns(f.create_group("columns", track_order=True), layout)
         C.write_columns(datasets, layout, comm.rank, columns)
+        if case_raw is not None:
+            dset = f.create_dataset("case", shape=(), dtype=h5py.string_dtype(
+                "utf-8", max(len(case_raw), 1)))
+            C.write_root_only(dset, np.bytes_(case_raw), comm.rank)
     comm.Barrier()
     error = None
     if comm.rank == 0:
@@ -141,3 +152,43 @@ def load_checkpoint(path, comm):
         dxpl = C.collective_xfer()
         columns = {name: C.read_rows(dset, start, count, dxpl) for name, dset in f["columns"].items()}
     return scalars, columns
+
+
+def read_checkpoint_case(path):
+    """The case record stored by :func:`save_checkpoint` (``case=``), or None when the
+    checkpoint holds none (written before checkpoints kept their case). Not collective."""
+    with h5py.File(os.fspath(path), "r") as f:
+        if "case" not in f:
+            return None
+        raw = f["case"][()]
+    return json.loads(raw.decode("utf-8") if isinstance(raw, bytes) else raw)
+
+
+def checkpoint_problem(path):
+    """Why the checkpoint at ``path`` cannot be restarted from (a short phrase), or None.
+
+    Not collective (rank 0 asks before every rank reads). It opens the file, parses the
+    scalars, and checks that every column has ``n_total`` rows stored within the file, so
+    a truncated or overwritten file is found before any rank reads it; the values
+    themselves carry no checksum."""
+    try:
+        size = os.path.getsize(path)
+        with h5py.File(os.fspath(path), "r") as f:
+            scalars = json.loads(f.attrs["scalars"])
+            if not isinstance(scalars, dict) or "step" not in scalars:
+                return "its scalars have no step"
+            total = int(f.attrs["n_total"])
+            columns = f["columns"]
+            if "x" not in columns:
+                return "it has no positions"
+            for name, dset in columns.items():
+                if dset.shape[:1] != (total,):
+                    return f"column {name} has {dset.shape[:1]} rows, expected {total}"
+                offset = dset.id.get_offset()
+                if total and (offset is None or offset + dset.id.get_storage_size() > size):
+                    return f"column {name} lies beyond the end of the file (truncated)"
+            if "case" in f:
+                f["case"][()]
+    except (OSError, KeyError, ValueError, TypeError) as err:
+        return str(err).splitlines()[0] if str(err) else type(err).__name__
+    return None

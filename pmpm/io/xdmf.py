@@ -17,6 +17,13 @@ named scalars are right in every reader and cost no extra storage.
 Xdmf3 builds no cells for a Polyvertex topology without connectivity, so the topology
 refers to an index dataset ``0 .. n-1`` (``/xdmf/polyvertex_N`` by default, written once per
 distinct particle count by :class:`pmpm.io.particles_h5.ParticleWriter`).
+
+A frame with no particles (every particle left the grid box) is listed with its time, as
+an empty spatial collection that refers to no dataset: the collection keeps one time step
+per frame of particles.h5. VTK's XDMF reader (ParaView's *XDMF Reader*) fails on a
+uniform grid of no points, however spelt (zero-size HDF5 or XML geometry: an error per
+time step; no geometry or no topology: a crash); it reads the empty collection as an empty
+data set, with a warning that its type differs from the other steps'.
 """
 from xml.sax.saxutils import escape, quoteattr
 
@@ -122,9 +129,19 @@ def _grid(h5_name, frame, indent):
     return text + f"{indent}</Grid>\n"
 
 
+def _empty_grid(frame, indent):
+    """A frame of no particles: its time in an empty spatial collection (module notes)."""
+    name = frame["group"].rstrip("/").rsplit("/", 1)[-1]
+    return (f'{indent}<Grid Name={quoteattr(name)} GridType="Collection" '
+            f'CollectionType="Spatial">\n'
+            f'{indent}  <Time Value="{float(frame["time"])!r}"/>\n'
+            f"{indent}</Grid>\n")
+
+
 def xdmf_text(h5_name, frames):
     """The XDMF document for ``frames`` (see :func:`write_xdmf`) as a string."""
-    grids = "".join(_grid(h5_name, frame, "      ") for frame in frames if int(frame["n"]) > 0)
+    grids = "".join(_grid(h5_name, frame, "      ") if int(frame["n"]) > 0
+                    else _empty_grid(frame, "      ") for frame in frames)
     return ('<?xml version="1.0" encoding="utf-8"?>\n'
             '<Xdmf Version="3.0" xmlns:xi="http://www.w3.org/2001/XInclude">\n'
             "  <Domain>\n"
@@ -151,8 +168,8 @@ def write_xdmf(xdmf_path, h5_name, frames):
         ``time`` and ``n`` (global particle count), and optionally ``columns`` (dict of
         name to (numpy dtype string, components); default :data:`STANDARD_COLUMNS`) and
         ``topology`` (HDF5 path of the index dataset ``0 .. n-1``; default
-        :func:`topology_path`). Frames with ``n == 0`` are left out: a grid of no points
-        cannot be read.
+        :func:`topology_path`). A frame with ``n == 0`` is an empty collection with its
+        time (see the module notes).
 
     Notes
     -----

@@ -19,13 +19,17 @@ class Decomposition:
     slabs : comm.Slabs
     grids : solver.levels.Hierarchy   (its levels give the per-level cell ranges)
     windows : list of grid.Window
+    n_bodies : int
+        Number of bodies, for the per-body count and mass of the points that left.
     """
 
-    def __init__(self, world, grid, slabs, grids, windows):
+    def __init__(self, world, grid, slabs, grids, windows, n_bodies=1):
         self.world, self.grid, self.slabs = world, grid, slabs
         self.grids, self.windows = grids, windows
         self.cell_ranges = []
         self.lost = 0
+        self.lost_count = np.zeros(n_bodies)   # per body, over all ranks
+        self.lost_mass = np.zeros(n_bodies)
 
     def assign_levels(self, kinds):
         for kind in kinds:
@@ -62,11 +66,22 @@ class Decomposition:
             owner = owners[i]
             if glob[2 + i] > 0:
                 self.lost += self.world.sum(outside[i])
+                self.count_lost(kind.particles, owner < 0)
                 kind.particles.take(owner >= 0)
                 owner = owner[owner >= 0]
             if glob[2 + n + i] > 0:
                 migrate_store(self.world, owner, kind.particles, check=False)
         return glob[0]
+
+    def count_lost(self, points, gone):
+        """Add the count and mass, per body, of the ``gone`` points (collective)."""
+        nb = len(self.lost_count)
+        body = points.body[gone]
+        local = np.concatenate([np.bincount(body, minlength=nb)[:nb].astype(np.float64),
+                                np.bincount(body, points.mass[gone], minlength=nb)[:nb]])
+        total = self.world.sum(local)
+        self.lost_count += total[:nb]
+        self.lost_mass += total[nb:]
 
     def send_to_owners(self, kinds):
         for kind in kinds:

@@ -25,7 +25,7 @@ class Progress:
         self.last_print = 0.0
         self.next_mark = 1  # next multiple of 5 % to report when not on a terminal
 
-    def update(self, step, t, dt, rate, energy_growth=0.0):
+    def update(self, step, t, dt, rate, energy_growth=0.0, lost=0):
         if not self.enabled:
             return
         fraction = t / self.end if self.end > 0 else 1.0
@@ -41,7 +41,7 @@ class Progress:
         eta = elapsed * (1.0 - fraction) / fraction if fraction > 0 else float("nan")
         line = (f"step {step:7d}  t {t:.4e}  dt {dt:.3e}  {100 * fraction:5.1f}%  "
                 f"{rate / 1e6:6.2f} M particle-steps/s  energy {100 * energy_growth:+6.2f}%  "
-                f"ETA {eta:7.1f} s")
+                f"ETA {eta:7.1f} s" + (f"  lost {lost}" if lost else ""))
         end = "\r" if self.tty and fraction < 1.0 else "\n"
         self.stream.write(line + end)
         self.stream.flush()

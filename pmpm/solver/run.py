@@ -31,7 +31,7 @@ class Schedule:
 class Runner:
     """Drives a :class:`Simulation` to ``time.end`` and writes the run contract's files."""
 
-    def __init__(self, sim, out_dir, case_text, progress=True, restart=None):
+    def __init__(self, sim, out_dir, case_text, progress=True, restart=None, case=None):
         self.sim, self.world, self.out = sim, sim.world, out_dir
         self.config = sim.config
         self.end = float(self.config.time.end)
@@ -40,6 +40,7 @@ class Runner:
         self.output = self.config.output
         self.schedule = Schedule(self.output, self.end)
         self.case_text = case_text
+        self.case = case            # the validated case dict, kept in every checkpoint
         self.progress = Progress(self.end, progress and self.output.progress and
                                  self.world.is_root)
         self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root)
@@ -48,6 +49,11 @@ class Runner:
         self.step_wall = 0.0
         self.frame_index = 0
         self.n_initial = self.world.sum(sim.particles.n)
+        self.allowance = float(self.config.grid.lost_mass_fraction)
+        names = sim.bodies.names
+        stats = body_stats(self.world, sim.particles, names)
+        self.mass0 = np.array([stats[name]["mass"] for name in names]) + sim.decomposition.lost_mass
+        self.lost_seen = sim.lost
         self.wall_before = 0.0
         self.last_checkpoint = None
         self.restart = restart
@@ -62,6 +68,8 @@ class Runner:
         self.wall_before = scalars.get("wall_s", 0.0)
         self.last_checkpoint = scalars["step"]
         self.watch.restore(scalars.get("energy_watch"))
+        if "body_mass0" in scalars:
+            self.mass0 = np.asarray(scalars["body_mass0"], dtype=np.float64)
         if self.world.is_root:
             self.local_load_work = self.watch.load_work
 
@@ -109,6 +117,9 @@ class Runner:
             sim.advance(dt)
         except SolverError as err:
             raise SolverError(self.fault_message(err, dt)) from None
+        if sim.lost != self.lost_seen:
+            self.lost_seen = sim.lost
+            self.check_lost(dt)
         self.step_wall += clock.perf_counter() - tick
         self.particle_steps += n
         if self.config.loads:          # the loads' work over the step (trapezoidal)
@@ -128,11 +139,29 @@ class Runner:
             self.write_history_row(dt)
         if self.checkpoint_due(at_frame):
             self.save_checkpoint(dt)
-        self.progress.update(step, sim.time, dt, self.rate(), self.watch.growth)
+        self.progress.update(step, sim.time, dt, self.rate(), self.watch.growth, sim.lost)
 
-    def fault_message(self, err, dt):
+    def check_lost(self, dt):
+        """A fault when some body has lost more than grid.lost_mass_fraction of its
+        initial mass out of the grid box (the same on every rank: the sums are global)."""
+        d = self.sim.decomposition
+        over = np.flatnonzero(d.lost_mass > self.allowance * self.mass0 * (1 + 1e-12))
+        if len(over) == 0:
+            return
+        b = over[0]
+        name = self.sim.bodies.names[b]
+        share = d.lost_mass[b] / self.mass0[b] if self.mass0[b] > 0 else 1.0
+        err = (f"{int(d.lost_count[b])} particles of body '{name}' ({100 * share:.3g} % "
+               f"of its mass) have left the grid box, more than grid.lost_mass_fraction = "
+               f"{self.allowance:g} allows (raise it if bodies may leave the grid)")
+        raise SolverError(self.fault_message(err, dt, taken=True))
+
+    def fault_message(self, err, dt, taken=False):
+        """``err`` with the step it happened in (``taken``: the step is already counted)
+        and the last checkpoint."""
         sim = self.sim
-        where = f"step {sim.step_count + 1} (t = {sim.time:.6g} to {sim.time + dt:.6g})"
+        k, t = (sim.step_count, sim.time - dt) if taken else (sim.step_count + 1, sim.time)
+        where = f"step {k} (t = {t:.6g} to {t + dt:.6g})"
         if self.last_checkpoint is None:
             return f"{where}: {err}; no checkpoint written"
         last = checkpoint_path(self.out, self.last_checkpoint)
@@ -181,8 +210,11 @@ class Runner:
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
                    "frame_index": self.frame_index, "step_wall": self.step_wall,
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
+                   "body_mass0": self.mass0.tolist(),
                    **sim.restart_state()}
-        io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns())
+        case = None if self.case is None else {"text": self.case_text, "case": self.case}
+        io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
+                           case=case)
         self.last_checkpoint = sim.step_count
 
     def finish(self, dt):
@@ -236,7 +268,10 @@ class Runner:
 
     def body_summary(self):
         stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)
-        for body in stats.values():
+        d = self.sim.decomposition
+        for b, body in enumerate(stats.values()):
+            body["lost_particles"] = int(d.lost_count[b])
+            body["lost_mass"] = float(d.lost_mass[b])
             if body["n_particles"] == 0:  # every particle left the grid: no box to give
                 body["bbox_min"] = list(body["centroid"])
                 body["bbox_max"] = list(body["centroid"])

@@ -34,7 +34,8 @@ class Simulation:
         self.grids = Hierarchy(levels, world, shape, bodies.half_width)
         self.points = ParticleBodies(particles, bodies, config.gravity, config.time.pic)
         self.kinds = [self.points]
-        self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows)
+        self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows,
+                                           len(bodies.names))
         self.refiner = Refiner(world, grid, self.windows, self.kinds,
                                n_total if id_base is None else id_base)
         rules = ContactRules(config.contact, bodies)
@@ -104,6 +105,9 @@ class Simulation:
         sim.time, sim.step_count = scalars["time"], scalars["step"]
         sim.stepper.fastest = scalars["fastest"]
         sim.decomposition.lost = scalars.get("lost", 0)
+        for name in ("lost_count", "lost_mass"):
+            if name in scalars:
+                getattr(sim.decomposition, name)[:] = scalars[name]
         return sim
 
     # -- what the run loop asks --------------------------------------------------------
@@ -138,6 +142,8 @@ class Simulation:
         """What a checkpoint keeps beyond the points' columns."""
         return {"slab_axis": self.slabs.axis, "slab_bounds": self.slabs.bounds.tolist(),
                 "fastest": self.stepper.fastest, "lost": int(self.lost),
+                "lost_count": self.decomposition.lost_count.tolist(),
+                "lost_mass": self.decomposition.lost_mass.tolist(),
                 "refine": self.refiner.state()}
 
     def window_counts(self):

@@ -1,0 +1,140 @@
+"""The size of a run, estimated before the kernels compile: particles, time steps (end
+time over the first time step) and bytes of output, with the limits that refuse a run
+that cannot finish (``time.max_steps``) or whose output cannot fit on the disk."""
+import math
+import shutil
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..particles import COLUMNS
+from .bodies import BodyTable, initial_field
+from .errors import SetupError
+
+#: Columns of a particle frame (run.Runner.write_frame), as named in the store.
+FRAME_COLUMNS = ("x", "v", "stress", "eps_p", "rho", "mass", "body", "id", "temp", "e_int")
+#: Checkpoints on disk at once: the two kept and the one being written.
+CHECKPOINTS_AT_ONCE = 3
+#: Bytes of one number in history.csv (a repr-formatted float and its comma).
+HISTORY_NUMBER_BYTES = 24
+
+
+def bytes_per_particle(names):
+    """Bytes one particle takes in the columns ``names``."""
+    return sum(np.dtype(COLUMNS[n][0]).itemsize * COLUMNS[n][1] for n in names)
+
+
+@dataclass(frozen=True)
+class RunSize:
+    particles: int
+    first_dt: float
+    steps: float
+    frames: int
+    output_bytes: float
+
+    def line(self, free_bytes):
+        """The line rank 0 prints before the run."""
+        free = "" if free_bytes is None else f" ({_size(free_bytes)} free)"
+        return (f"pmpm: {self.particles:,} particles; about {_count(self.steps)} steps "
+                f"(first time step {self.first_dt:.3g}); output about "
+                f"{_size(self.output_bytes)} in {_frames(self.frames)}{free}")
+
+
+def _frames(n):
+    return f"{n} frame" + ("" if n == 1 else "s")
+
+
+def _count(x):
+    return f"{x:,.0f}" if x < 1e7 else f"{x:.2g}"
+
+
+def _size(n):
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n:.0f} B"
+
+
+def initial_speed(config, filled):
+    """Fastest initial wave plus particle speed over the bodies, times the finest
+    window's ratio: the coarse-grid speed of the same Courant number (as
+    Simulation.initial_speed, but from the filled positions, before any particle is
+    built)."""
+    table = BodyTable(config)
+    fastest = 0.0
+    for b, (positions, _) in enumerate(filled):
+        if len(positions) == 0:
+            continue
+        v = np.zeros((len(positions), 3))
+        for d, component in enumerate(config.bodies[b].velocity):
+            v[:, d] = initial_field(component, positions, f"bodies[{b}].velocity[{d}]")
+        fastest = max(fastest, table.initial_wave_speed(b) + float(
+            np.sqrt((v * v).sum(axis=1)).max()))
+    return fastest * max([w.ratio for w in config.grid.windows] + [1])
+
+
+def estimate(config, n_particles, fastest, t0=0.0, first_frame=True):
+    """RunSize of the run of ``config`` from time ``t0`` with ``n_particles`` and the
+    coarse-grid equivalent wave plus particle speed ``fastest`` (as the run loop's)."""
+    from .run import Schedule
+    time, output = config.time, config.output
+    dt = time.cfl * config.grid.cell / fastest if fastest > 0 else math.inf
+    dt = min(dt, time.dt_max or math.inf)
+    remaining = max(float(time.end) - t0, 0.0)
+    frame_times = [t for t in Schedule(output, float(time.end)).times
+                   if t > t0 + 1e-12 * time.end]
+    frames = len(frame_times) + (1 if first_frame else 0)
+    steps = remaining / dt if math.isfinite(dt) else 1.0
+    steps = math.ceil(steps) + len(frame_times) if steps < 1e15 else steps
+    rows = steps / output.history_every + frames
+    row_bytes = HISTORY_NUMBER_BYTES * (6 + 6 * len(config.bodies))
+    out = (frames * n_particles * bytes_per_particle(FRAME_COLUMNS)
+           + CHECKPOINTS_AT_ONCE * n_particles * bytes_per_particle(COLUMNS)
+           + rows * row_bytes)
+    return RunSize(int(n_particles), dt, float(steps), frames, float(out))
+
+
+def size_problems(config, size, free_bytes):
+    """Lines naming the key of each limit the run exceeds."""
+    problems = []
+    limit = config.time.max_steps
+    if size.steps > limit:
+        problems.append(
+            f"time.end: {config.time.end:g} takes about {_count(size.steps)} time steps of "
+            f"the first one ({size.first_dt:.3g}), more than time.max_steps = {limit:g}; "
+            f"check the case's speeds and end time, or raise time.max_steps")
+    if not problems and free_bytes is not None and size.output_bytes > free_bytes:
+        problems.append(
+            f"output.frames: the run would write about {_size(size.output_bytes)} "
+            f"({_frames(size.frames)} of {size.particles:,} particles, checkpoints, history) "
+            f"but the output directory has {_size(free_bytes)} free; write fewer frames "
+            f"(output.frames, output.times) or choose another --out")
+    return problems
+
+
+def free_bytes(directory):
+    """Free bytes on the file system of ``directory``, or None where unknown."""
+    try:
+        return shutil.disk_usage(directory).free
+    except OSError:
+        return None
+
+
+def check_size(world, config, n_particles, fastest, out, t0=0.0, first_frame=True):
+    """Estimate the run and raise SetupError naming the keys of the limits it exceeds
+    (collective: rank 0 decides; ``fastest`` is a function giving the coarse-grid speed,
+    called on rank 0 only). Returns the line to print before the run (on rank 0; None
+    on the others)."""
+    result = None
+    if world.is_root:
+        try:
+            size = estimate(config, n_particles, fastest(), t0, first_frame)
+        except SetupError as error:
+            result = (error.problems, None)
+        else:
+            free = free_bytes(out)
+            result = (size_problems(config, size, free), size.line(free))
+    problems, line = world.bcast(result)
+    if problems:
+        raise SetupError(problems)
+    return line if world.is_root else None

@@ -1,0 +1,72 @@
+"""Particles leaving the grid box (issue 17): they are dropped and counted per body in
+the progress lines and summary.json, and a body losing more than grid.lost_mass_fraction
+of its mass stops the run (exit 1, one message from every rank count)."""
+import json
+import re
+
+import pytest
+
+from clihelp import BAR, pmpm, pmpm_lines, run_ok
+
+RUNAWAY = ["--set", "gravity=[0, 0, -1e12]"]        # every particle out within a step
+FREE_FLOOR = ["--set", "grid.boundary.z-=free"]      # the bar's first layer flies out
+BAR_MASS = 624 * 8.93e-3 * 0.5 ** 3                  # particles x density x volume
+FIRST_LAYER = 52                                     # of 624 particles: 8.33 % of the mass
+
+
+def summary(out):
+    with open(out / "summary.json", encoding="utf-8") as f:
+        return json.load(f)
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_runaway_load_is_a_fault_naming_the_body(tmp_path, ranks):
+    done = pmpm([BAR, "--out", tmp_path / "out", "--quiet", *RUNAWAY], ranks)
+    assert done.returncode == 1, done.stderr
+    assert pmpm_lines(done.stderr) == [
+        "pmpm: run stopped: step 1 (t = 0 to 0.00010671): 624 particles of body 'bar' "
+        "(100 % of its mass) have left the grid box, more than grid.lost_mass_fraction = 0 "
+        "allows (raise it if bodies may leave the grid); no checkpoint written"]
+    assert "Traceback" not in done.stderr
+
+
+def test_losses_within_the_allowance_are_reported(tmp_path):
+    out = tmp_path / "out"
+    done = run_ok([BAR, "--out", out, *FREE_FLOOR, "--set", "grid.lost_mass_fraction=0.1"])
+    progress = [line for line in done.stdout.splitlines() if line.startswith("step")]
+    assert "lost" not in progress[0]
+    assert progress[-1].endswith(f"lost {FIRST_LAYER}"), progress[-1]
+    s = summary(out)
+    bar = s["bodies"]["bar"]
+    assert s["particles_lost"] == bar["lost_particles"] == FIRST_LAYER
+    assert bar["n_particles"] == 624 - FIRST_LAYER
+    assert bar["lost_mass"] == pytest.approx(FIRST_LAYER / 624 * BAR_MASS, rel=1e-12)
+    assert bar["mass"] + bar["lost_mass"] == pytest.approx(BAR_MASS, rel=1e-12)
+
+
+def test_losses_beyond_the_allowance_stop_the_run(tmp_path):
+    out = tmp_path / "out"
+    done = pmpm([BAR, "--out", out, "--quiet", *FREE_FLOOR,
+                 "--set", "grid.lost_mass_fraction=0.05"], ranks=2)
+    assert done.returncode == 1, done.stderr
+    lines = pmpm_lines(done.stderr)
+    assert len(lines) == 1 and lines[0].startswith("pmpm: run stopped: step "), lines
+    # the first layer reaches z = 0 in step 24 or 25, some of it one step earlier
+    match = re.search(r": (\d+) particles of body 'bar' \(([\d.]+) % of its mass\) have "
+                      r"left the grid box, more than grid.lost_mass_fraction = 0.05 allows",
+                      lines[0])
+    assert match and 5 < float(match.group(2)) <= 8.34, lines[0]
+    assert "last checkpoint: " in lines[0]
+
+
+def test_a_restart_keeps_the_count_and_the_initial_mass(tmp_path):
+    out = tmp_path / "out"
+    allow = ["--set", "grid.lost_mass_fraction=0.2"]
+    run_ok([BAR, "--out", out, "--quiet", *FREE_FLOOR, *allow])
+    assert summary(out)["bodies"]["bar"]["lost_particles"] == FIRST_LAYER
+    run_ok([BAR, "--out", out, "--quiet", "--restart", *FREE_FLOOR, *allow,
+            "--set", "time.end=0.01"])
+    bar = summary(out)["bodies"]["bar"]
+    assert bar["lost_particles"] >= 2 * FIRST_LAYER   # the second layer followed
+    assert summary(out)["particles_lost"] == bar["lost_particles"]
+    assert bar["mass"] + bar["lost_mass"] == pytest.approx(BAR_MASS, rel=1e-12)
