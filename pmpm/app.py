@@ -25,6 +25,7 @@ def run_case(world, args):
     if args.restart:
         checkpoint = choose_checkpoint(world, out)
         case_text = check_restart_case(world, checkpoint, case, case_text)
+    from .kernels.shape import SHAPE_CODES
     from .kernels.warmup import warm_up
     from .solver.memory import current_rss_bytes, return_freed_memory_to_os
     from .solver.run import Runner
@@ -32,7 +33,7 @@ def run_case(world, args):
     before_setup = current_rss_bytes()
     setup = begin_set_up(world, config, args, checkpoint, out)
     before_compile = current_rss_bytes()
-    compile_s = world.max(warm_up())
+    compile_s = world.max(warm_up(SHAPE_CODES[config.grid.shape_functions]))
     baseline = before_setup + current_rss_bytes() - before_compile
     sim, restart, size = setup()
     if size and not args.quiet:

@@ -9,7 +9,7 @@ from pmpm.kernels.boundary import fill_face_codes
 from pmpm.kernels.records import (BodyMaterials, ExternalLoads, GridGeometry, NodeBlock,
                                   PointState)
 from pmpm.materials.state import MaterialState
-from pmpm.kernels.shape import BSPLINE, GIMP, LINEAR, MAX_NODES, stencil
+from pmpm.kernels.shape import BSPLINE, GIMP, LINEAR, MARKERS, MAX_NODES, stencil
 from pmpm.materials.catalog import pack
 from numba import njit
 
@@ -78,7 +78,7 @@ def test_particle_to_grid_conserves_mass_and_momentum(shape):
     nodal = np.zeros((b.n_nodes, mpm.NODAL_COMPONENTS))
     points = PointState(x, v, mass, np.zeros(n, np.int32), np.zeros(n, np.int32))
     mpm.particles_to_grid(points, np.zeros(1, np.bool_), GridGeometry(np.zeros(3), 1.0, b.lo,
-                          b.strides, shape, np.full(1, 0.25)), nodal, 0)
+                          b.strides, MARKERS[shape], np.full(1, 0.25)), nodal, 0)
     assert nodal[:, 0].sum() == pytest.approx(mass.sum(), rel=1e-13)
     assert nodal[:, 1:4].sum(axis=0) == pytest.approx(mass @ v, rel=1e-12, abs=1e-12)
 
@@ -121,7 +121,7 @@ def test_internal_forces_of_uniform_stress_cancel_inside():
     bodies = BodyMaterials(np.array([code]), row[None, :], np.zeros(1, np.bool_))
     loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(n, -1, np.int32), np.zeros(n))
     mpm.stress_and_forces(points, mat, bodies, loads, 1e-6, 1.0,
-                          GridGeometry(np.zeros(3), 1.0, b.lo, b.strides, 0, np.zeros(1)),
+                          GridGeometry(np.zeros(3), 1.0, b.lo, b.strides, (), np.zeros(1)),
                           np.zeros((b.n_nodes, 3)), force, None, 0, True, True)
     assert np.all(stress == [100.0, 50.0, 20.0, 10.0, 5.0, 2.0])
     assert np.abs(force.sum(axis=0)).max() < 1e-10

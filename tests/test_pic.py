@@ -17,7 +17,7 @@ def test_pic_one_gives_the_grid_velocity_and_zero_the_flip_update():
     n = 50
     b = LocalBlock(np.zeros(3, np.int64), np.full(3, 5), 0, [])
     gnew = rng.normal(size=(b.n_nodes, 6))
-    geo = GridGeometry(np.zeros(3), 1.0, b.lo, b.strides, 0, np.zeros(1))
+    geo = GridGeometry(np.zeros(3), 1.0, b.lo, b.strides, (), np.zeros(1))
     x0, v0 = rng.uniform(0.2, 3.8, (n, 3)), rng.normal(size=(n, 3))
     results = {}
     for pic in (0.0, 1.0, 0.25):

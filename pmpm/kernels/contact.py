@@ -34,7 +34,8 @@ def body_masks(pts, geo, mask, want):
     """mask[n] |= 1 << body for every node the shape functions of a point of ``pts`` (a
     PointState) with ``level[p] == want`` reach; ``geo`` a GridGeometry."""
     x, _, _, body, level = pts
-    origin, inv_h, lo, strides, shape, half_width = geo
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
     first = np.empty(3, np.int64)
     for p in range(x.shape[0]):
@@ -43,8 +44,7 @@ def body_masks(pts, geo, mask, want):
         base, reach = 0, 0
         for d in range(3):
             first[d], reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
-                                           half_width[body[p]], axes[3 * d],
-                                           axes[3 * d + 1], axes[3 * d + 2])
+                                           half_width[body[p]], axes, 3 * d)
             base += (first[d] - lo[d]) * strides[d]
         bit = np.int64(1) << np.int64(body[p])
         for a in range(reach):
@@ -78,7 +78,8 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
     offset from the node (in cells) at the contact nodes, from the points with
     ``level[p] == want``."""
     x, v, mass, body, level = pts
-    origin, inv_h, lo, strides, shape, half_width = geo
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
     for p in range(x.shape[0]):
         if level[p] != want:
@@ -87,29 +88,26 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
         base, reach = 0, 0
         for d in range(3):
             first, reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
-                                        half_width[b], axes[3 * d], axes[3 * d + 1],
-                                        axes[3 * d + 2])
+                                        half_width[b], axes, 3 * d)
             base += (first - lo[d]) * strides[d]
-        wx, dx, ox = axes[0], axes[1], axes[2]
-        wy, dy, oy = axes[3], axes[4], axes[5]
-        wz, dz, oz = axes[6], axes[7], axes[8]
         for a in range(reach):
             for bb in range(reach):
                 for cc in range(reach):
                     s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
                     if s < 0:
                         continue
-                    mw = m * wx[a] * wy[bb] * wz[cc]
+                    wx, wy, wz = axes[0, a], axes[3, bb], axes[6, cc]
+                    mw = m * wx * wy * wz
                     cnodal[s, b, 0] += mw
                     cnodal[s, b, 1] += mw * v[p, 0]
                     cnodal[s, b, 2] += mw * v[p, 1]
                     cnodal[s, b, 3] += mw * v[p, 2]
-                    cnodal[s, b, 4] += m * (dx[a] * inv_h) * wy[bb] * wz[cc]
-                    cnodal[s, b, 5] += m * wx[a] * (dy[bb] * inv_h) * wz[cc]
-                    cnodal[s, b, 6] += m * wx[a] * wy[bb] * (dz[cc] * inv_h)
-                    cnodal[s, b, 7] += mw * ox[a]
-                    cnodal[s, b, 8] += mw * oy[bb]
-                    cnodal[s, b, 9] += mw * oz[cc]
+                    cnodal[s, b, 4] += m * (axes[1, a] * inv_h) * wy * wz
+                    cnodal[s, b, 5] += m * wx * (axes[4, bb] * inv_h) * wz
+                    cnodal[s, b, 6] += m * wx * wy * (axes[7, cc] * inv_h)
+                    cnodal[s, b, 7] += mw * axes[2, a]
+                    cnodal[s, b, 8] += mw * axes[5, bb]
+                    cnodal[s, b, 9] += mw * axes[8, cc]
 
 
 @njit(cache=True, inline="always")

@@ -32,7 +32,8 @@ NODAL_COMPONENTS = 8
 def particles_to_grid(pts, rigid, geo, nodal, want):
     """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
     x, v, mass, body, level = pts
-    origin, inv_h, lo, strides, shape, half_width = geo
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
@@ -98,7 +99,8 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
     the new nodal velocity at the particle (PIC), which damps. Returns the index of the
     first particle whose new position is not finite, else -1."""
     x, v, _, body, level = pts
-    origin, inv_h, lo, strides, shape, half_width = geo
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     if contact is not None:
         slot_of, cnew = contact.slot_of, contact.cnew
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
@@ -172,7 +174,8 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     stress, F, rho, eps_p, e_int, temp, q = mat
     codes, params, rigid = bodies
     gravity, load_vec, load, load_scale = loads
-    origin, inv_h, lo, strides, shape, half_width = geo
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     if contact is not None:
         slot_of, cvel, cforce = contact.slot_of, contact.cvel, contact.cforce
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))

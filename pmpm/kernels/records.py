@@ -14,7 +14,8 @@ from ..materials.state import MaterialState
 
 #: The grid of one level as a particle kernel sees it: ``origin`` (3,), ``inv_h`` (the
 #: level's 1 / cell size), the rank's local node block ``lo`` (3,), ``strides`` (3,),
-#: the ``shape`` function code (``pmpm.kernels.shape``) and per body the particles' uGIMP
+#: the ``shape`` function's marker (``pmpm.kernels.shape.MARKERS``: a tuple whose length
+#: is the shape code) and per body the particles' uGIMP
 #: ``half_width`` (nb,) in cells.
 GridGeometry = namedtuple("GridGeometry", "origin inv_h lo strides shape half_width")
 

@@ -9,18 +9,24 @@ from ..materials import layout
 from ..materials.state import MaterialState
 from . import boundary, contact, mpm, tied
 from .cache import refresh_inlined_caches
+from .shape import LINEAR, MARKERS
 from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, GridGeometry,
                       NodeBlock, PairRules, PointState, TieSet)
 
+N = 27   # nodes of the warm-up block
 
-def warm_up():
-    """Return the seconds spent compiling or loading the kernels."""
+
+def warm_up(shape_code=LINEAR):
+    """Return the seconds spent compiling or loading the kernels (for the shape functions
+    ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels)."""
     started = time.perf_counter()
     refresh_inlined_caches()
-    lo, strides, shape = np.zeros(3, np.int64), np.array([4, 2, 1], np.int64), np.full(3, 2, np.int64)
-    n_cells = np.ones(3, np.int64)
-    geo = GridGeometry(np.zeros(3), 1.0, lo, strides, 0, np.full(1, 0.25))
-    block = NodeBlock(shape, lo, strides, n_cells, np.zeros(6, np.int64), np.zeros(8, np.uint8))
+    # 3 x 3 x 3 nodes: what a 27-node shape reaches from the point at (0.5, 0.5, 0.5)
+    lo, strides, shape = np.zeros(3, np.int64), np.array([9, 3, 1], np.int64), np.full(3, 3, np.int64)
+    n_cells = np.full(3, 2, np.int64)
+    geo = GridGeometry(np.zeros(3), 1.0, lo, strides, MARKERS[shape_code],
+                       np.full(1, 0.25))
+    block = NodeBlock(shape, lo, strides, n_cells, np.zeros(6, np.int64), np.zeros(N, np.uint8))
     pts = PointState(np.full((1, 3), 0.5), np.zeros((1, 3)), np.ones(1),
                      np.zeros(1, np.int32), np.zeros(1, np.int32))
     rigid = np.zeros(1, np.bool_)
@@ -30,8 +36,8 @@ def warm_up():
     mat = MaterialState(np.zeros((1, 6)), np.eye(3).reshape(1, 9).copy(), np.ones(1),
                         np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1))
     loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(1, -1, np.int32), np.zeros(1))
-    nodal = np.zeros((8, mpm.NODAL_COMPONENTS))
-    gvel, force, gnew = np.zeros((8, 3)), np.zeros((8, 3)), np.zeros((8, 6))
+    nodal = np.zeros((N, mpm.NODAL_COMPONENTS))
+    gvel, force, gnew = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6))
     slots, view = warm_up_contact(pts, geo, block, gvel, gnew)
     mpm.particles_to_grid(pts, rigid, geo, nodal, 0)
     mpm.nodal_velocities(nodal, block, 0.0, gvel)
@@ -52,7 +58,7 @@ def warm_up():
 
 def warm_up_contact(pts, geo, block, gvel, gnew):
     """The contact kernels; returns the (empty) slots and view they leave."""
-    mask, slot_of = np.zeros(8, np.int64), np.zeros(8, np.int64)
+    mask, slot_of = np.zeros(N, np.int64), np.zeros(N, np.int64)
     contact.body_masks(pts, geo, mask, 0)
     slot_nodes = contact.number_contact_nodes(mask, slot_of)
     cnodal = np.zeros((0, 1, contact.CNODAL))
@@ -72,9 +78,9 @@ def warm_up_ties(pts, geo, block, nodal):
     tied.particle_levels(x, geo.origin, 1.0, np.zeros((1, 3), np.int64),
                          np.ones((1, 3), np.int64), level)
     level[:] = 0
-    mask = np.zeros(8, np.int64)
+    mask = np.zeros(N, np.int64)
     tied.mark_occupied(x, level, geo.origin, 1.0, geo.lo, geo.strides, mask)
-    ties = TieSet(np.zeros(8, np.int64), np.zeros((8, 8), np.int64), np.zeros((8, 8)), 0)
+    ties = TieSet(np.zeros(N, np.int64), np.zeros((N, 8), np.int64), np.zeros((N, 8)), 0)
     count = tied.find_ties(block, block.lo, block.lo + 1, 2, block, mask, ties)
     ties = ties._replace(count=count)
     tied.slaves_to_masters(ties, nodal, nodal)

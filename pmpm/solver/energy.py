@@ -10,8 +10,8 @@ import sys
 
 import numpy as np
 
-CAUSES = ("a time step too large where particles cross cells under USF (lower time.cfl "
-          "or use time.scheme: musl), bulk viscosity heating fed back by a Mie-Grueneisen "
+CAUSES = ("particles crossing cells with linear shape functions (use "
+          "grid.shape_functions: bspline or gimp, or lower time.cfl), bulk viscosity heating fed back by a Mie-Grueneisen "
           "EOS behind strong shocks, contact that keeps pushing after bodies part; rigid "
           "bodies and fixed faces also do work the balance does not count")
 

@@ -5,6 +5,7 @@ import numpy as np
 from ..comm import sum_shared_planes
 from ..kernels import mpm
 from ..kernels.boundary import fill_face_codes
+from ..kernels.shape import MARKERS
 from ..kernels.records import GridGeometry, NodeBlock
 from .workspace import Workspace
 
@@ -27,8 +28,8 @@ class LevelState:
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
         lv = self.level
-        self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides, self.shape,
-                                     self.half_width)
+        self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides,
+                                     MARKERS[self.shape], self.half_width)
         if len(self.faces) < b.n_nodes:
             self.faces = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.uint8)
         faces = self.faces[:b.n_nodes]
