@@ -12,9 +12,11 @@ Usage: .venv/bin/python scripts/planar_shock.py [--only NAME ...] [--out DIR]
 """
 import argparse
 import os
+import subprocess
 
 from _common import ROOT, run_case, save_json, write_lines
 
+from pmpm.post import read_history
 from pmpm.post.shock import planar_shock_errors
 
 CASE = "runs/planar_shock.yaml"
@@ -62,7 +64,11 @@ def main():
     for name in args.only or RUNS:
         what, sets = RUNS[name]
         out = os.path.join(args.out, name)
-        summary = run_case(CASE, out, 1, sets)
+        try:
+            summary = run_case(CASE, out, 1, sets)
+        except subprocess.CalledProcessError:
+            rows.append(failed_row(name, what, sets, out))
+            continue
         rows.append(row(name, what, sets, out, summary))
     save_json(os.path.join(args.out, "planar_shock.json"), rows)
     write_table(os.path.join(args.out, "planar_shock.md"), rows)
@@ -90,6 +96,15 @@ def row(name, what, sets, out, summary):
             "exact": measured["exact"]}
 
 
+def failed_row(name, what, sets, out):
+    """A run stopped by a fault: its energy growth at the last history row."""
+    history = read_history(out)
+    total = history["total"]
+    return {"name": name, "what": what, "sets": sets, "failed_at": float(history["time"][-1]),
+            "n_steps": int(history["step"][-1]), "growth": total[-1] / total[0] - 1.0,
+            "largest_growth": max(total) / total[0] - 1.0}
+
+
 def write_table(path, rows):
     lines = ["Energy: growth of the total energy at 1.2 us (largest). Errors: relative, "
              "plateau means of the target (flyer); scatter: plateau pressure standard "
@@ -97,6 +112,11 @@ def write_table(path, rows):
              "| run | steps | energy | Us | P | rho | up | P scatter |",
              "|---|---|---|---|---|---|---|---|"]
     for r in rows:
+        if "failed_at" in r:
+            lines.append(f"| {r['what']} | {r['n_steps']} | {100 * r['growth']:+.1f} % "
+                         f"at {1e3 * r['failed_at']:.2f} us, then a failed update "
+                         "| | | | | |")
+            continue
         t, f = r["errors"]["target"], r["errors"]["flyer"]
         cells = " | ".join(f"{100 * t[k]:+.1f} ({100 * f[k]:+.1f})"
                            for k in ("Us", "P", "rho", "up"))
