@@ -10,9 +10,9 @@ import sys
 
 import numpy as np
 
-CAUSES = ("a time step too large where particles cross cells under USF (lower time.cfl "
-          "or use time.scheme: musl), bulk viscosity heating fed back by a Mie-Grueneisen "
-          "EOS behind strong shocks, contact that keeps pushing after bodies part; rigid "
+CAUSES = ("a time step too large where particles cross cells under USF, worst where the "
+          "crossing material is highly stressed, as behind a strong shock (lower time.cfl "
+          "or use time.scheme: musl), contact that keeps pushing after bodies part; rigid "
           "bodies and fixed faces also do work the balance does not count")
 
 
