@@ -32,6 +32,7 @@ COARSE = {
     "ogive_plate_window": (f"{RUNS}/ogive_plate.yaml",
                            ["params.ppc_rod=1", "params.ppc_plate=1", "params.ratio=2",
                             "time.end=0.003"]),
+    "planar_shock": (f"{CASES}/planar_shock.yaml", []),
     "rings": (f"{RUNS}/rings.yaml", ["params.cell=5", "time.end=0.6", "output.times=[]"]),
     "rings_usf_method1": (f"{RUNS}/rings.yaml",
                           ["params.cell=5", "params.method=1", "time.scheme=usf",

@@ -12,7 +12,8 @@ One step of a particle, in order:
 3. artificial bulk viscosity ``q`` from the volumetric rate;
 4. pressure and specific internal energy together: hypoelastic ``p - K tr(de)`` (or the
    Neo-Hookean pressure) with an explicit energy update, or an EOS, for which the energy
-   equation is solved in closed form;
+   equation is solved in closed form; the work is the trapezoid over the step's exact
+   change of specific volume;
 5. the wave speed for the CFL condition, or -1.0 if anything is not finite (Neo-Hookean:
    the stiffer of the small-strain speed and :func:`neo_hookean_wave_speed` at the new F).
 
@@ -207,31 +208,36 @@ def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, 
 
 
 @njit(cache=True, inline="always")
-def energy_known_pressure(e_old, work_dev, p_old, p_new, q, dv, rho_mid):
+def energy_known_pressure(e_old, work_dev, p_old, p_new, q, dvs, v_mid):
     """Specific internal energy after a step whose end pressure is known.
 
-    ``e + [s_avg : de - ((p_old + p_new)/2 + q) tr(de)] / rho_mid`` (trapezoidal stress
-    work; the bulk viscosity ``q`` acts over the whole step).
+    ``e + s_avg : de v_mid - ((p_old + p_new)/2 + q) dvs``: trapezoidal stress work per
+    unit mass, with ``dvs`` the step's exact change of specific volume ``1/rho_new -
+    1/rho_old`` and ``v_mid`` the mean specific volume (the deviatoric work ``s_avg : de``
+    is per unit current volume); the bulk viscosity ``q`` acts over the whole step.
     """
-    return e_old + fdiv(work_dev - (0.5 * (p_old + p_new) + q) * dv, rho_mid)
+    return e_old + (work_dev * v_mid - (0.5 * (p_old + p_new) + q) * dvs)
 
 
 @njit(cache=True, inline="always")
-def pressure_and_energy(a, b, e_old, work_dev, p_old, q, dv, rho_mid):
+def pressure_and_energy(a, b, e_old, work_dev, p_old, q, dvs, v_mid):
     """End-of-step pressure and specific energy for an EOS ``p = a + b e``.
 
     Notes
     -----
-    The energy equation ``e_new = e_old + [w_dev - ((p_old + p_new)/2 + q) dv]/rho_mid``
-    with ``p_new = a + b e_new`` is linear in ``e_new``; its solution is
-    ``e_new = (rho_mid e_old + w_dev - ((p_old + a)/2 + q) dv) / (rho_mid + b dv/2)``
-    (as LS-DYNA does for EOSs linear in energy), so no lag between p and e remains.
+    The energy equation ``e_new = e_old + w_dev v_mid - ((p_old + p_new)/2 + q) dvs``
+    (:func:`energy_known_pressure`) with ``p_new = a + b e_new`` is linear in ``e_new``;
+    its solution is ``e_new = (e_old + w_dev v_mid - ((p_old + a)/2 + q) dvs) /
+    (1 + b dvs/2)`` (as LS-DYNA does for EOSs linear in energy), so no lag between p and
+    e remains. With ``dvs`` the exact change of specific volume, a step that jumps from
+    the unshocked state to a density on the Hugoniot lands on the Hugoniot: the
+    trapezoid ``(p_0 + p_1)(v_0 - v_1)/2`` is the Rankine-Hugoniot energy jump.
     """
-    den = rho_mid + 0.5 * b * dv
+    den = 1.0 + 0.5 * b * dvs
     if not den > 0.0:
         return math.nan, math.nan
     # 1/den does not wait for the deviatoric work: one multiply at the end of the chain
-    e_new = (rho_mid * e_old + (work_dev - (0.5 * (p_old + a) + q) * dv)) * fdiv(1.0, den)
+    e_new = (e_old + (work_dev * v_mid - (0.5 * (p_old + a) + q) * dvs)) * fdiv(1.0, den)
     return a + b * e_new, e_new
 
 
@@ -341,6 +347,11 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
     if not (rho_new > 0.0 and math.isfinite(rho_new)):
         return -1.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old
     rho_mid = 0.5 * (rho_old + rho_new)
+    # specific volume: its exact change over the step (rho_new = rho_old / (1 + dv)) and
+    # its mean, for the energy equation
+    v_old = fdiv(1.0, rho_old)
+    dvs = dv * v_old
+    v_mid = v_old + 0.5 * dvs
     g = prm[G]
     k_bulk = prm[K]
     p_old = -trace(sig_old) / 3.0
@@ -394,12 +405,12 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
             c_old = speed_from_stiffness(k_old, g43, rho_new)
         q_new = bulk_viscosity(rho_new, h, c_old, div, prm[Q_LINEAR], prm[Q_QUADRATIC])
     if has_eos:
-        p_new, e_new = pressure_and_energy(a, b, e_old, work_dev, p_old, q_new, dv, rho_mid)
+        p_new, e_new = pressure_and_energy(a, b, e_old, work_dev, p_old, q_new, dvs, v_mid)
     else:
-        e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dv, rho_mid)
+        e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dvs, v_mid)
     if code == FLUID and p_new < -prm[TENSION_CUTOFF]:
         p_new = -prm[TENSION_CUTOFF]
-        e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dv, rho_mid)
+        e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dvs, v_mid)
     if has_eos:
         c = speed_from_inverse(bulk_stiffness(code, k_bulk, True, kt0, kt1, p_new, rho_new, c0),
                                g43, inv_rho)
@@ -464,11 +475,13 @@ def update_stress(p, code, prm, dt, h, Lg, mat):
       ``p >= -tension_cutoff``.
 
     With an EOS the pressure of any model comes from it instead. The specific energy
-    takes the trapezoidal stress work ``[s_avg : de - (p_avg + q) dv] / rho_mid``, with
+    takes the trapezoidal stress work ``s_avg : de v_mid - (p_avg + q) dvs``, with
     ``s_avg`` the mean of the rotated old and the new deviator (the fluid's viscous
     deviator is a rate, so it uses the new one: dissipation is ``2 eta dev(D):dev(D) dt``),
-    and ``rho_mid`` the mean of the old and new density. ``q`` (stored, not added to the
-    stress) uses the sound speed at the new density and old pressure.
+    ``dvs = 1/rho_new - 1/rho_old = dv/rho_old`` the exact change of specific volume and
+    ``v_mid`` the mean specific volume (so that a jump onto the Hugoniot in one step gains
+    the Rankine-Hugoniot energy exactly). ``q`` (stored, not added to the stress) uses the
+    sound speed at the new density and old pressure.
 
     Inlined into its caller (see the module's notes on speed). Every column is read before
     and written after :func:`material_step`, outside any branch; a failed update writes

@@ -10,9 +10,10 @@ import sys
 
 import numpy as np
 
-CAUSES = ("particles crossing cells with linear shape functions (use "
-          "grid.shape_functions: bspline or gimp, or lower time.cfl), bulk viscosity heating fed back by a Mie-Grueneisen "
-          "EOS behind strong shocks, contact that keeps pushing after bodies part; rigid "
+CAUSES = ("particles crossing cells with linear shape functions, worst where the "
+          "crossing material is highly stressed, as behind a strong shock (use "
+          "grid.shape_functions: bspline or gimp, or lower time.cfl), contact that keeps "
+          "pushing after bodies part; rigid "
           "bodies and fixed faces also do work the balance does not count")
 
 
