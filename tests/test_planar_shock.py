@@ -61,15 +61,29 @@ def test_symmetric_impact_matches_rankine_hugoniot(tmp_path, scheme, cfl):
     assert abs(balance["growth"]) < ENERGY and balance["largest_growth"] < ENERGY
 
 
-@pytest.mark.xfail(strict=True, reason="issue 14: shocked copper moving across cells "
-                   "gains energy under USF with linear shape functions (+18 % in 0.25 us "
-                   "here, target pressure +17 %); docs/validation/planar_shock.md")
-def test_impact_on_a_target_at_rest_matches_rankine_hugoniot(tmp_path):
-    """The same impact seen from the target: the jump is Galilean invariant, pmpm's
-    answer today is not."""
-    measured, balance = run(tmp_path, 1000.0, "usf", 0.5)
+#: target at rest, USF cfl 0.5, measured (flyer / target): gimp Us -0.6/+1.3 %, P +0.4/
+#: +0.4 %, rho 0.0/0.0 %, up +0.6/+0.3 %, energy +1.2 %; bspline Us 0.0/+0.1 %, P -3.7/
+#: -3.3 %, rho -0.3/-0.3 %, up -3.6/-3.4 % (the wider B-spline smears the plateau),
+#: energy +1.1 %; linear hats: energy +18 %, target P +17 %, Us +8 %
+AT_REST = {**TOLERANCE, "up": 0.04}
+
+
+@pytest.mark.parametrize("shape", [
+    "gimp", "bspline",
+    pytest.param("linear", marks=pytest.mark.xfail(
+        strict=True, reason="issue 14: shocked copper moving across cells gains energy "
+                            "under USF with linear shape functions (+18 % in 0.25 us here, "
+                            "target pressure +17 %); docs/validation/planar_shock.md"))])
+def test_impact_on_a_target_at_rest_matches_rankine_hugoniot(tmp_path, shape):
+    """The same impact seen from the target: the jump is Galilean invariant, and so is
+    pmpm's answer with shape functions whose gradients are continuous across cells."""
+    out = tmp_path / "out"
+    run_pmpm(CASE, out, sets=["params.v_flyer=1000", "time.scheme=usf", "time.cfl=0.5",
+                              f"grid.shape_functions={shape}"])
+    measured = planar_shock_errors(str(out), 1000.0, 0.0, RHO0, C0, S)
+    balance = read_summary(str(out))["energy_balance"]
     assert abs(balance["growth"]) < ENERGY
     for body in ("flyer", "target"):
         errors = measured["errors"][body]
         for key in MEASURES:
-            assert abs(errors[key]) < TOLERANCE[key], (body, key, errors)
+            assert abs(errors[key]) < AT_REST[key], (body, key, errors)
