@@ -139,8 +139,19 @@ LOAD = {
 read_load = Checked(mapping(LOAD), _check_region)
 
 
+#: The most cells a grid box may hold: node indices are 64-bit integers.
+MAX_GRID_CELLS = 1e18
+
+
 def _check_grid(grid, path, problems):
     if check_min_below_max(grid, path, problems) and valid(grid, "cell"):
+        cells = [(b - a) / grid["cell"] for a, b in zip(grid["min"], grid["max"])]
+        if not all(math.isfinite(n) for n in cells) or math.prod(cells) > MAX_GRID_CELLS:
+            problems.add(join(path, "max"), "the grid box holds " + " x ".join(
+                f"{n:.3g}" for n in cells) + f" cells of grid.cell = {grid['cell']:g}, "
+                f"more than the {MAX_GRID_CELLS:.0e} its node indices can count")
+            grid["max"] = INVALID
+            return grid
         grid["max"] = rounded_max(grid["min"], grid["max"], grid["cell"])
         check_windows(grid, path, problems)
     return grid
@@ -222,7 +233,7 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     case["params"] = params
     check_references(case, problems)
     bodies = [] if case["bodies"] is INVALID else case["bodies"]
-    if check_geometry and valid(case["grid"], "min", "max", "cell", "windows"):
+    if check_geometry and valid(case["grid"], "min", "max", "cell", "windows", "boundary"):
         if _fits_in_memory(case, bodies, case_dir, problems):
             check_bodies_in_grid(bodies, case["grid"], case_dir, problems)
     else:

@@ -150,6 +150,8 @@ def needed_bytes(particles, nodes, ranks):
 
 
 def _bytes(n):
+    if not math.isfinite(n):
+        return "more than 1e308 bytes"
     for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
         if n >= scale:
             return f"{n / scale:.3g} {unit}"
@@ -157,19 +159,37 @@ def _bytes(n):
 
 
 def _count(x):
+    if not math.isfinite(x):
+        return "more than 1e308"
     return f"{x:,.0f}" if x < 1e7 else f"{x:.2g}"
+
+
+def _about(x, show=_count):
+    return ("about " if math.isfinite(x) else "") + show(x)
+
+
+def _int(n):
+    return str(n) if n < 1e9 else f"{float(n):.3g}"
 
 
 def case_estimate(bodies, grid, case_dir="."):
     """(particles per body index, grid nodes) estimated for ``bodies``, a mapping of
     the valid bodies' indices to them."""
     counts, boxes = {}, []
-    for i, body in bodies.items():
-        count, box = body_estimate(body, grid, case_dir)
-        counts[i] = count
-        if box is not None:
-            boxes.append(box)
-    return counts, grid_nodes(grid, boxes)
+    with np.errstate(all="ignore"):
+        for i, body in bodies.items():
+            try:
+                count, box = body_estimate(body, grid, case_dir)
+            except OverflowError:           # sizes near 1e308: beyond any memory
+                count, box = math.inf, None
+            counts[i] = count if math.isfinite(count) else math.inf
+            if box is not None:
+                boxes.append(box)
+        try:
+            nodes = grid_nodes(grid, boxes)
+        except OverflowError:
+            nodes = math.inf
+    return counts, nodes
 
 
 def check_memory(bodies, grid, limit_gb, case_dir, problems, ranks=None, available=None):
@@ -177,7 +197,7 @@ def check_memory(bodies, grid, limit_gb, case_dir, problems, ranks=None, availab
     memory exceeds ``limit_gb`` (decomposition.memory_limit_gb) or else this machine's
     available memory. Returns True when the case fits (the bodies may then be filled)."""
     counts, nodes = case_estimate(bodies, grid, case_dir)
-    particles = sum(counts.values())
+    particles = float(sum(counts.values()))
     ranks = local_ranks() if ranks is None else ranks
     needed = needed_bytes(particles, nodes, ranks)
     if limit_gb is not None:
@@ -191,14 +211,14 @@ def check_memory(bodies, grid, limit_gb, case_dir, problems, ranks=None, availab
     ppc = bodies[largest]["particles_per_cell"]
     ppc_key = join(join("bodies", largest), "particles_per_cell")
     key = ppc_key if ppc > 4 else "grid.cell"
-    ratios = [f"grid.windows[{k}].ratio = {w['ratio']}" for k, w in
+    ratios = [f"grid.windows[{k}].ratio = {_int(w['ratio'])}" for k, w in
               enumerate(windows_of(grid)) if w["ratio"] > 1]
     body_text = ", ".join(f"bodies[{i}] '{bodies[i]['name']}' {_count(c)}"
                           for i, c in counts.items() if c >= 0.01 * particles)
-    problems.add(key, f"the case needs about {_count(particles)} particles ({body_text}) and "
+    problems.add(key, f"the case needs {_about(particles)} particles ({body_text}) and "
                  f"{_count(nodes)} grid nodes at grid.cell = {grid['cell']:g}, "
-                 f"{ppc_key} = {ppc}" + "".join(", " + r for r in ratios)
-                 + f": about {_bytes(needed)} of memory on {ranks} rank"
+                 f"{ppc_key} = {_int(ppc)}" + "".join(", " + r for r in ratios)
+                 + f": {_about(needed, _bytes)} of memory on {ranks} rank"
                  + ("" if ranks == 1 else "s") + f", more than {source}; make grid.cell "
                  f"larger or particles_per_cell smaller, or set "
                  f"decomposition.memory_limit_gb (GB) to allow more")
