@@ -277,7 +277,16 @@ def check_references(case, problems):
                          unknown_name("body", load["body"], body_names))
 
 
+#: The most frames a run may write: each is a group of particles.h5 and a grid of the
+#: XDMF, and the output schedule lists them all before the run starts.
+MAX_FRAMES = 1_000_000
+
+
 def _check_output_times(case, problems):
+    output = case["output"]
+    if valid(output, "frames") and output["frames"] > MAX_FRAMES:
+        problems.add("output.frames", f"{output['frames']:.6g} frames: at most {MAX_FRAMES:,} "
+                     f"(each is a group of particles.h5)")
     if not (valid(case["output"], "times") and valid(case["time"], "end")):
         return
     end = case["time"]["end"]
