@@ -156,7 +156,7 @@ def test_defaults_filled(tmp_path):
     assert case["output"] == {"frames": 10, "history_every": 10, "checkpoint_every": 0,
                               "progress": True, "times": [], "energy_warning": 0.05}
     assert case["decomposition"] == {"axis": "auto", "rebalance_threshold": 0.2,
-                                     "check_every": 50}
+                                     "check_every": 50, "memory_limit_gb": None}
     assert case["loads"] == []
     copper = case["materials"]["copper"]
     assert copper["eps_dot0"] == 1e-3 and copper["T_room"] == 293.0 and copper["chi"] == 0.9

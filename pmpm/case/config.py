@@ -131,6 +131,7 @@ class DecompositionConfig:
     axis: str
     rebalance_threshold: float
     check_every: int
+    memory_limit_gb: float = None
 
 
 @mirrors(WINDOW)

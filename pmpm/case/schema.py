@@ -11,11 +11,12 @@ from .windows import WINDOW, check_window_bodies, check_windows
 from .bodies import BODY, check_bodies_in_grid, check_mesh_files, check_min_below_max
 from .errors import CaseError, Problems, join, unknown_name
 from .fields import (INVALID, Checked, Custom, Field, Marker, Tagged, at_least, at_most,
-                     boolean, choice, defaults_of, greater, integer, list_of, mapping,
-                     number, number_list, read_mapping, text, valid, vector)
+                     boolean, choice, defaults_of, greater, has_invalid, integer, list_of,
+                     mapping, number, number_list, read_mapping, text, valid, vector)
 from .materials import MATERIALS
 from .overrides import apply_overrides
 from .params import resolve_params, substitute
+from .size import check_memory
 
 FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
 BOUNDARY_CONDITIONS = ("fixed", "slip", "free", "symmetry")
@@ -75,6 +76,11 @@ DECOMPOSITION = {
                                  "the slabs are moved when max/mean particles per rank - 1 "
                                  "exceeds it"),
     "check_every": Field(integer(at_least(1)), 50, "steps", "steps between balance checks"),
+    "memory_limit_gb": Field(number(greater(0)), None, "GB",
+                             "memory the run may use on this machine, all its ranks "
+                             "together (none: the machine's available memory); a case "
+                             "estimated (from its bodies' volumes, before they are filled) "
+                             "to need more is refused"),
 }
 TIME_FUNCTIONS = {
     "constant": {},
@@ -133,8 +139,19 @@ LOAD = {
 read_load = Checked(mapping(LOAD), _check_region)
 
 
+#: The most cells a grid box may hold: node indices are 64-bit integers.
+MAX_GRID_CELLS = 1e18
+
+
 def _check_grid(grid, path, problems):
     if check_min_below_max(grid, path, problems) and valid(grid, "cell"):
+        cells = [(b - a) / grid["cell"] for a, b in zip(grid["min"], grid["max"])]
+        if not all(math.isfinite(n) for n in cells) or math.prod(cells) > MAX_GRID_CELLS:
+            problems.add(join(path, "max"), "the grid box holds " + " x ".join(
+                f"{n:.3g}" for n in cells) + f" cells of grid.cell = {grid['cell']:g}, "
+                f"more than the {MAX_GRID_CELLS:.0e} its node indices can count")
+            grid["max"] = INVALID
+            return grid
         grid["max"] = rounded_max(grid["min"], grid["max"], grid["cell"])
         check_windows(grid, path, problems)
     return grid
@@ -216,12 +233,25 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     case["params"] = params
     check_references(case, problems)
     bodies = [] if case["bodies"] is INVALID else case["bodies"]
-    if check_geometry and valid(case["grid"], "min", "max", "cell", "windows"):
-        check_bodies_in_grid(bodies, case["grid"], case_dir, problems)
+    if check_geometry and valid(case["grid"], "min", "max", "cell", "windows", "boundary"):
+        if _fits_in_memory(case, bodies, case_dir, problems):
+            check_bodies_in_grid(bodies, case["grid"], case_dir, problems)
     else:
         check_mesh_files(bodies, case_dir, problems)
     problems.raise_if_any()
     return case
+
+
+def _fits_in_memory(case, bodies, case_dir, problems):
+    """The memory estimate before any body is filled (a case of 1e10 particles would
+    otherwise be filled here, on every rank, until memory runs out)."""
+    whole = {i: b for i, b in enumerate(bodies)
+             if b is not INVALID and not has_invalid(b["geometry"], b["particles_per_cell"])}
+    decomposition = case["decomposition"]
+    if not whole or not valid(decomposition, "memory_limit_gb"):
+        return True
+    return check_memory(whole, case["grid"], decomposition["memory_limit_gb"], case_dir,
+                        problems)
 
 
 def check_references(case, problems):
@@ -247,7 +277,16 @@ def check_references(case, problems):
                          unknown_name("body", load["body"], body_names))
 
 
+#: The most frames a run may write: each is a group of particles.h5 and a grid of the
+#: XDMF, and the output schedule lists them all before the run starts.
+MAX_FRAMES = 1_000_000
+
+
 def _check_output_times(case, problems):
+    output = case["output"]
+    if valid(output, "frames") and output["frames"] > MAX_FRAMES:
+        problems.add("output.frames", f"{output['frames']:.6g} frames: at most {MAX_FRAMES:,} "
+                     f"(each is a group of particles.h5)")
     if not (valid(case["output"], "times") and valid(case["time"], "end")):
         return
     end = case["time"]["end"]
