@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from clihelp import FAULT, frame_list, pmpm, pmpm_lines, read_history
+from clihelp import BAR, FAULT, frame_list, pmpm, pmpm_lines, read_history
 from pmpm.io import latest_checkpoint
 from pmpm.io.checkpoint import list_checkpoints
 
@@ -58,3 +58,13 @@ def test_restart_from_the_checkpoint_before_a_fault_meets_it_again(tmp_path):
     assert (first.returncode, again.returncode) == (1, 1), again.stderr
     step = [MESSAGE.match(pmpm_lines(d.stderr)[0]).group(1) for d in (first, again)]
     assert step[0] == step[1]
+
+
+def test_energies_that_overflow_stop_the_run_with_one_line(tmp_path):
+    """Found by tests/test_fuzz.py: a density of 1e308 made the mass and the kinetic
+    energy infinite and the run ended in a traceback from the summary's contract check."""
+    done = pmpm([BAR, "--quiet", "--out", tmp_path / "o", "--set",
+                 "materials.copper.density=1e308"])
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    assert any("the energies are not finite" in line for line in pmpm_lines(done.stderr))

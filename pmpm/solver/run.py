@@ -191,6 +191,11 @@ class Runner:
 
     def write_history_row(self, dt):
         e = energies(self.world, self.sim.particles)
+        if not all(np.isfinite(value) for value in e.values()):
+            raise SolverError(
+                f"step {self.sim.step_count} (t = {self.sim.time:.6g}): the energies are "
+                f"not finite (kinetic {e['kinetic']:.3g}, internal {e['internal']:.3g}): "
+                f"a material value, load or velocity overflows double precision")
         self.watch.observe(self.sim.time, e, gravitational_potential(
             self.world, self.sim.particles, self.config.gravity),
             self.world.sum(self.local_load_work))
