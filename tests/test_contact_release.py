@@ -16,7 +16,7 @@ from runhelp import CASES, run_pmpm
 
 CASE = os.path.join(CASES, "two_bars.yaml")
 E, RHO, V0, LS, LB = 1.0e5, 5.0e-3, 10.0, 10.0, 40.0
-SHORT = ["time.end=0.03", "contact.release=0"]
+SHORT = ["time.end=0.03"]          # the case has the release rule, no separation check
 
 
 def exact(rho_s):
@@ -81,6 +81,16 @@ def test_bars_part_at_the_elastic_speeds_and_keep_their_momentum(runs, key, rho_
     assert abs(measured - length) < 0.03 * length
 
 
+@pytest.mark.parametrize("shape", ["gimp", "bspline"])
+def test_27_node_shapes_release_equal_bars(tmp_path, shape):
+    """The 27-node shapes reach a node further; the striker still stops and stays."""
+    run_pmpm(CASE, tmp_path, 1, SHORT + [f"grid.shape_functions={shape}"])
+    vs, vb, drift_s, drift_b = after_parting(tmp_path, 0.006)
+    assert abs(vs) < 0.1
+    assert abs(RHO * LS * vs + RHO * LB * vb - RHO * LS * V0) < 1e-6 * RHO * LS * V0
+    assert drift_s < 1e-6 and drift_b < 1e-6
+
+
 @pytest.mark.parametrize("lb", [10.0, 40.0])
 def test_one_rank_equals_two_with_the_release_rule(tmp_path, lb):
     """Lb = Ls: as many particles in each bar, so the slab plane is the contact plane."""
@@ -102,3 +112,17 @@ def test_release_rule_reads_and_resolves_per_pair():
                               "contact.pairs=[{bodies: [striker, bar], release: none}]"])
     assert loaded["contact"]["release"] == 0.1
     assert loaded["contact"]["pairs"][0]["release"] is None
+
+
+def test_surface_gap_of_two_touching_faces_is_zero_and_opens_with_the_particles():
+    from pmpm.kernels import contact as kc
+    cext = np.full((1, 2, kc.CEXT), -np.inf)
+    cext[0, 0, :] = [-0.25, 0.25, 0.25, 0.75, 0.25, 0.25]   # body 0: particles at x <= -0.25
+    cext[0, 1, :] = [0.75, 0.25, 0.25, -0.25, 0.25, 0.25]   # body 1: particles at x >= 0.25
+    half = np.array([0.25, 0.25])
+    normal = np.array([1.0, 0.0, 0.0])                      # body 0's outward normal
+    assert kc.surface_gap(cext, 0, 0, 1, normal, half) == pytest.approx(0.0)
+    assert kc.surface_gap(cext, 0, 1, 0, -normal, half) == pytest.approx(0.0)
+    cext[0, 1, 3] = -0.35                                   # body 1 moved 0.1 cell away
+    assert kc.surface_gap(cext, 0, 0, 1, normal, half) == pytest.approx(0.1)
+    assert kc.surface_gap(cext, 0, 1, 0, -normal, half) == pytest.approx(0.1)
