@@ -91,10 +91,11 @@ def test_27_node_shapes_release_equal_bars(tmp_path, shape):
     assert drift_s < 1e-6 and drift_b < 1e-6
 
 
-@pytest.mark.parametrize("lb", [10.0, 40.0])
-def test_one_rank_equals_two_with_the_release_rule(tmp_path, lb):
+@pytest.mark.parametrize("lb, shape", [(10.0, "linear"), (40.0, "linear"), (10.0, "bspline")])
+def test_one_rank_equals_two_with_the_release_rule(tmp_path, lb, shape):
     """Lb = Ls: as many particles in each bar, so the slab plane is the contact plane."""
-    sets = SHORT + ["time.end=0.012", "params.rho_s=2.5e-3", f"params.Lb={lb}"]
+    sets = SHORT + ["time.end=0.012", "params.rho_s=2.5e-3", f"params.Lb={lb}",
+                    f"grid.shape_functions={shape}"]
     one, two = tmp_path / "one", tmp_path / "two"
     run_pmpm(CASE, one, 1, sets)
     run_pmpm(CASE, two, 2, sets + ["decomposition.axis=x"])
