@@ -171,10 +171,12 @@ class PairConfig:
     friction: float
     normal: str
     separation: float | None
+    release: float | None
 
     @classmethod
     def from_case(cls, pair, contact):
-        inherited = {key: contact.get(key) for key in ("friction", "normal", "separation")}
+        inherited = {key: contact.get(key)
+                     for key in ("friction", "normal", "separation", "release")}
         return record(cls, {**inherited, **pair})
 
 
@@ -188,6 +190,7 @@ class ContactConfig:
     skip_separating: bool
     normal: str
     separation: float | None
+    release: float | None
     pairs: tuple
 
     @classmethod

@@ -6,11 +6,14 @@
       normal: average       # collinear normals: average (Eq. 10), stiffer, or a body name
       separation: 0.9       # optional: contact only where the bodies are at most 0.9
                             # cells apart at a node (absent or none: the paper's detection)
+      release: 0.0          # optional: no contact where the surfaces' gap from particle
+                            # positions exceeds 0 cells (absent or none: the paper's rule)
       pairs:                # optional: per pair of bodies
         - bodies: [ball, plate]
           friction: 0.0
           normal: ball      # the named body's own normal (Sec. 2.3 choices 1 and 2)
           separation: 0.9
+          release: 0.0
 
 With method 1 or 2 every body has its own velocity field at nodes that two or more
 bodies reach, and every pair of bodies is in contact.
@@ -48,7 +51,15 @@ def read_separation(raw, path, problems):
     return number(greater(0))(raw, path, problems)
 
 
+def read_release(raw, path, problems):
+    """Cells >= 0, or none (null): no release rule, the paper's contact."""
+    if raw is None or str(raw).strip().lower() == "none":
+        return None
+    return number(at_least(0))(raw, path, problems)
+
+
 SEPARATION = Custom(read_separation, "number > 0, or `none`")
+RELEASE = Custom(read_release, "number >= 0, or `none`")
 NORMAL = "`average`, `stiffer`"
 PAIR = {
     "bodies": Field(Custom(read_pair_bodies, "two body names"),
@@ -62,6 +73,9 @@ PAIR = {
     "separation": Field(SEPARATION, OMIT, "cells",
                         "as contact.separation, for this pair (`none`: no check for this "
                         "pair; left out: contact.separation)"),
+    "release": Field(RELEASE, OMIT, "cells",
+                     "as contact.release, for this pair (`none`: not for this pair; left "
+                     "out: contact.release)"),
 }
 CONTACT = {
     "method": Field(Custom(read_method, "`none`, `1`, `2`"), 0,
@@ -90,6 +104,13 @@ CONTACT = {
                         "there lie at most this many cell sizes (of the node's grid level) "
                         "apart along the normal; left out or `none`: no check, the paper's "
                         "detection (Sec. 2.2)"),
+    "release": Field(RELEASE, OMIT, "cells",
+                     "the release rule (methods 1 and 2): no contact force at a node where "
+                     "the two bodies' surfaces, placed half a particle spacing beyond their "
+                     "outermost particles there, are more than this many cells apart along "
+                     "the normal, so bodies that part keep their momentum (0: contact only "
+                     "across a closed gap; docs/validation/two_bars.md); left out or "
+                     "`none`: seed 001's contact"),
     "pairs": Field(list_of(mapping(PAIR), 0, "pair"), [],
                    doc="the pairs of bodies with their own friction, normal or separation"),
 }

@@ -28,6 +28,12 @@ def or_shared_planes(world, planes, block):
     _combine_shared_planes(world, planes, block, np.bitwise_or)
 
 
+def max_shared_planes(world, planes, block):
+    """Like ``sum_shared_planes``, keeping the larger of the two copies (symmetric, so the
+    two copies stay identical)."""
+    _combine_shared_planes(world, planes, block, np.maximum)
+
+
 def _combine_shared_planes(world, planes, block, combine):
     """``block[first:stop] = combine(block[first:stop], neighbour's copy)`` for every
     shared span of planes; ``block`` may also be a dict of span -> view."""

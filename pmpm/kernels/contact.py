@@ -275,3 +275,93 @@ def _add_contact_acceleration(v0, acc, normal, cm_new, mu, dt, tangent):
     slide = min(mu * abs(normal_part), stick)
     for d in range(3):
         acc[d] += normal_part * normal[d] + slide * tangent[d]
+
+
+CEXT = 6
+
+
+@njit(cache=True)
+def contact_extents(pts, geo, slot_of, cext, want):
+    """The farthest reach of each body's particles at the contact nodes, for the release
+    rule (:func:`release_open_gaps`): ``cext[s, b, d]`` (d < 3) is the largest offset
+    (x_p - x_i)/h along +axis d of a particle of body b that the shape functions of node
+    s weigh, ``cext[s, b, 3 + d]`` the largest along -d; in cells, -inf where b has no
+    particle. Start from -inf; combine ranks with a maximum."""
+    x, v, mass, body, level = pts
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
+    axes = np.empty((9, 3))
+    for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
+        b = body[p]
+        base, reach = 0, 0
+        for d in range(3):
+            first, reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
+                                        half_width[b], axes, 3 * d)
+            base += (first - lo[d]) * strides[d]
+        for a in range(reach):
+            for bb in range(reach):
+                for cc in range(reach):
+                    if axes[0, a] * axes[3, bb] * axes[6, cc] <= 0.0:
+                        continue
+                    s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
+                    if s < 0:
+                        continue
+                    off0, off1, off2 = axes[2, a], axes[5, bb], axes[8, cc]
+                    cext[s, b, 0] = max(cext[s, b, 0], off0)
+                    cext[s, b, 1] = max(cext[s, b, 1], off1)
+                    cext[s, b, 2] = max(cext[s, b, 2], off2)
+                    cext[s, b, 3] = max(cext[s, b, 3], -off0)
+                    cext[s, b, 4] = max(cext[s, b, 4], -off1)
+                    cext[s, b, 5] = max(cext[s, b, 5], -off2)
+
+
+@njit(cache=True, inline="always")
+def surface_gap(cext, s, b, other, normal, half_width):
+    """The gap (cells) between the surfaces of b and ``other`` at slot s along b's
+    outward unit ``normal``: the nearest particle of ``other`` minus the farthest of b,
+    each widened by its half spacing (the particles' boxes, bounded by the box of their
+    offsets: exact for faces normal to an axis, smaller than the true gap elsewhere)."""
+    far_b, near_other, width = 0.0, 0.0, 0.0
+    for d in range(3):
+        nd = normal[d]
+        if nd >= 0.0:
+            far_b += nd * cext[s, b, d]
+            near_other -= nd * cext[s, other, 3 + d]
+        else:
+            far_b -= nd * cext[s, b, 3 + d]
+            near_other += nd * cext[s, other, d]
+        width += abs(nd)
+    return near_other - far_b - (half_width[b] + half_width[other]) * width
+
+
+@njit(cache=True)
+def release_open_gaps(slots, cext, release, half_width, m_tiny, block):
+    """The release rule, after :func:`contact_start`: where the surfaces of a body and the
+    heaviest other body at a contact node are more than ``release[b, other]`` cells apart
+    (:func:`surface_gap`), the body is not in contact there this step: its start velocity
+    goes back to its own (Eq. 6, undoing method 2's Eq. 25) and its normal to zero, so
+    that :func:`contact_end` applies no force (Eq. 12 needs an approach along a normal).
+    Contact then pushes only across a closed gap, and bodies that part keep their
+    momentum. Writes ``slots.cvel`` and ``slots.cnorm``."""
+    cnodal, slot_nodes, cvel, cnorm, _, _ = slots
+    faces = block.faces
+    vec = np.empty(3)
+    for s in range(slot_nodes.shape[0]):
+        n = slot_nodes[s]
+        for b in range(cnodal.shape[1]):
+            m = cnodal[s, b, 0]
+            if m <= m_tiny:
+                continue
+            other = _heaviest_other(cnodal, s, b, m_tiny)
+            if other < 0:
+                continue
+            if surface_gap(cext, s, b, other, cnorm[s, b], half_width) <= release[b, other]:
+                continue
+            for d in range(3):
+                vec[d] = cnodal[s, b, 1 + d] / m
+            constrain_coded(vec, faces[n])
+            for d in range(3):
+                cvel[s, b, d] = vec[d]
+                cnorm[s, b, d] = 0.0

@@ -4,7 +4,7 @@ nodes. The node loops are in ``pmpm.kernels.contact``."""
 import numpy as np
 
 from ..comm import sum_shared_planes
-from ..comm.exchange import or_shared_planes
+from ..comm.exchange import max_shared_planes, or_shared_planes
 from ..kernels import contact as kc
 from ..kernels import tied
 from ..kernels.records import ContactSlots, ContactView, PairRules
@@ -25,6 +25,9 @@ class ContactRules:
     master : (nb, nb) int64   -1: average of the two normals (Eq. 10); else a body index
     separation : (nb, nb) float64   cells; contact needs the two bodies' mean positions at
         a node at most this far apart along the normal (inf: no check, seed 001 Sec. 2.2)
+    release : (nb, nb) float64   cells; the release rule: no contact where the surfaces
+        of the two bodies at a node, from their particles' positions, are more than this
+        far apart (inf: no release rule, seed 001's methods unchanged)
     """
 
     def __init__(self, contact, bodies):
@@ -37,6 +40,7 @@ class ContactRules:
             raise ValueError(f"contact: at most {MAX_BODIES} bodies, got {nb}")
         self.friction = np.full((nb, nb), float(contact.friction))
         self.separation = np.full((nb, nb), _limit(contact.separation))
+        self.release = np.full((nb, nb), _limit(contact.release))
         self.master = np.full((nb, nb), -1, np.int64)
         default = contact.normal
         stiffness = [_stiffness(bodies, b) for b in range(nb)]
@@ -48,12 +52,18 @@ class ContactRules:
             a, b = (names.index(name) for name in pair.bodies)      # the section's
             self.friction[a, b] = self.friction[b, a] = float(pair.friction)
             self.separation[a, b] = self.separation[b, a] = _limit(pair.separation)
+            self.release[a, b] = self.release[b, a] = _limit(pair.release)
             self.master[a, b] = self.master[b, a] = _master(pair.normal, a, b, names,
                                                             stiffness)
 
     @property
     def active(self):
         return self.method > 0
+
+    @property
+    def releases(self):
+        """True when some pair has the release rule."""
+        return bool(np.isfinite(self.release).any())
 
     def record(self):
         return PairRules(self.master, self.friction, self.separation)
@@ -94,7 +104,7 @@ class GridContact(Coupling):
     def after_mass_sum(self, grids, kinds):
         nb = len(self.bodies.names)
         for s in grids:
-            self.fields[s.index].map_points(kinds, s, nb)
+            self.fields[s.index].map_points(kinds, s, nb, self.rules.releases)
 
     def after_velocities(self, grids):
         for s in grids:
@@ -104,6 +114,9 @@ class GridContact(Coupling):
             f.cnorm = f.slot_array("cnorm", 3, nb, zero=False)
             kc.contact_start(f.slots(), s.gvel, self.pairs, self.bodies.rigid,
                              self.rules.method, self.m_tiny, s.nodes)
+            if self.rules.releases:
+                kc.release_open_gaps(f.slots(), f.cext, self.rules.release,
+                                     s.geometry.half_width, self.m_tiny, s.nodes)
             f.cforce = f.slot_array("cforce", 3, nb)
 
     def after_integrate(self, grids, dt):
@@ -138,6 +151,7 @@ class ContactFields:
         self.cnodal = np.zeros((0, 1, kc.CNODAL))
         self.cvel = self.cnorm = self.cforce = np.zeros((0, 1, 3))
         self.cnew = np.zeros((0, 1, kc.CNEW))
+        self.cext = np.zeros((0, 1, kc.CEXT))
 
     def find_contact_nodes(self, kinds, state):
         """Nodes that points of two or more bodies reach, tied slaves left out (they
@@ -171,14 +185,22 @@ class ContactFields:
         flat = (self.work.zeros if zero else self.work.empty)(name, rows, width * n_bodies)
         return flat.reshape(rows, n_bodies, width)
 
-    def map_points(self, kinds, state, n_bodies):
+    def map_points(self, kinds, state, n_bodies, extents=False):
         """Per-body mass, momentum, mass gradient and mean offset at the contact nodes of
-        one grid level from its points."""
+        one grid level from its points; with ``extents`` also the farthest reach of each
+        body's particles (``cext``, for the release rule)."""
         self.find_contact_nodes(kinds, state)
         self.cnodal = self.slot_array("cnodal", kc.CNODAL, n_bodies)
         for kind in kinds:
             kind.scatter_contact(state, self.slot_of, self.cnodal)
         self.sum_on_shared_planes(state.block, self.cnodal)
+        if extents:
+            self.cext = self.slot_array("cext", kc.CEXT, n_bodies, zero=False)
+            self.cext.fill(-np.inf)
+            for kind in kinds:
+                kind.scatter_extents(state, self.slot_of, self.cext)
+            views = {span: self.cext[a:b] for span, (a, b) in self.plane_slots.items()}
+            max_shared_planes(self.world, state.block.shared_planes, views)
 
     def slots(self):
         return ContactSlots(self.cnodal, self.slot_nodes, self.cvel, self.cnorm, self.cforce,

@@ -79,6 +79,9 @@ class ParticleBodies:
         kc.contact_particles_to_grid(self.points(), state.geometry, slot_of, cnodal,
                                      state.index)
 
+    def scatter_extents(self, state, slot_of, cext):
+        kc.contact_extents(self.points(), state.geometry, slot_of, cext, state.index)
+
     def stress_and_forces(self, state, dt, contact):
         """USF: stresses from the start-of-step nodal velocities and the nodal forces in one
         pass. Returns the fastest wave plus particle speed, as the speed that gives the
