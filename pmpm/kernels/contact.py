@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from .boundary import constrain_coded
-from .shape import axis_stencil
+from .shape import point_axes
 
 CNODAL, CVEL, CNEW = 10, 3, 6
 
@@ -37,15 +37,11 @@ def body_masks(pts, geo, mask, want):
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
-    first = np.empty(3, np.int64)
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
-        base, reach = 0, 0
-        for d in range(3):
-            first[d], reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
-                                           half_width[body[p]], axes, 3 * d)
-            base += (first[d] - lo[d]) * strides[d]
+        base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape,
+                                 half_width[body[p]], axes)
         bit = np.int64(1) << np.int64(body[p])
         for a in range(reach):
             for b in range(reach):
@@ -85,11 +81,7 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
         if level[p] != want:
             continue
         b, m = body[p], mass[p]
-        base, reach = 0, 0
-        for d in range(3):
-            first, reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
-                                        half_width[b], axes, 3 * d)
-            base += (first - lo[d]) * strides[d]
+        base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
         for a in range(reach):
             for bb in range(reach):
                 for cc in range(reach):
@@ -295,11 +287,7 @@ def contact_extents(pts, geo, slot_of, cext, want):
         if level[p] != want:
             continue
         b = body[p]
-        base, reach = 0, 0
-        for d in range(3):
-            first, reach = axis_stencil((x[p, d] - origin[d]) * inv_h, shape,
-                                        half_width[b], axes, 3 * d)
-            base += (first - lo[d]) * strides[d]
+        base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
         for a in range(reach):
             for bb in range(reach):
                 for cc in range(reach):

@@ -79,6 +79,18 @@ def _gimp(r, lp):
 
 
 @njit(cache=True, inline="always")
+def point_axes(x, p, origin, inv_h, lo, strides, kind, lp, axes):
+    """Fill ``axes`` (9, 3) with particle p's 1D weights, derivatives (in cells) and
+    offsets along each axis d in rows 3d..3d+2 (:func:`axis_stencil`); returns (flat local
+    index of the first node it reaches, nodes per axis)."""
+    base, count = 0, 2
+    for d in range(3):
+        first, count = axis_stencil((x[p, d] - origin[d]) * inv_h, kind, lp, axes, 3 * d)
+        base += (first - lo[d]) * strides[d]
+    return base, count
+
+
+@njit(cache=True, inline="always")
 def stencil(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w, gx, gy, gz):
     """Fill the local node indices, weights and gradients of particle ``p``; returns how
     many nodes it reaches (8 or 27).
@@ -101,12 +113,10 @@ def stencil(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w, gx, gy, 
     if kind == LINEAR:
         _trilinear(x, p, origin, inv_h, lo, strides, nodes, w, gx, gy, gz)
         return 8
-    base, count = 0, 3
+    base, count = point_axes(x, p, origin, inv_h, lo, strides, kind, lp, axes)
     for d in range(3):
-        first, count = axis_stencil((x[p, d] - origin[d]) * inv_h, kind, lp, axes, 3 * d)
         for j in range(count):
             axes[3 * d + 1, j] *= inv_h
-        base += (first - lo[d]) * strides[d]
     k = 0
     for a in range(count):
         for b in range(count):
