@@ -24,6 +24,9 @@ BOUNDARY = {face: Field(choice(BOUNDARY_CONDITIONS, "boundary condition"), "free
                         doc=f"the face at grid.{'min' if face[1] == '-' else 'max'} "
                             f"along {face[0]}")
             for face in FACES}
+FRICTION = {face: Field(number(at_least(0)), 0.0, "1",
+                        f"Coulomb coefficient on face {face} (a slip face only)")
+            for face in FACES}
 TIME = {
     "end": Field(number(greater(0)), unit="ms", doc="simulated end time"),
     "cfl": Field(number(greater(0), at_most(1)), 0.5, "1",
@@ -154,7 +157,22 @@ def _check_grid(grid, path, problems):
             return grid
         grid["max"] = rounded_max(grid["min"], grid["max"], grid["cell"])
         check_windows(grid, path, problems)
+    _check_friction_faces(grid, path, problems)
     return grid
+
+
+def _check_friction_faces(grid, path, problems):
+    """Friction only on slip faces (a fixed face already stops the material, a free one
+    does not touch it, a symmetry plane has none)."""
+    friction, boundary = grid.get("friction"), grid.get("boundary")
+    if not isinstance(friction, dict) or not isinstance(boundary, dict):
+        return
+    for face, mu in friction.items():
+        condition = boundary.get(face)
+        if isinstance(mu, (int, float)) and mu > 0 and condition != "slip":
+            problems.add(join(join(path, "friction"), face),
+                         f"friction {mu:g} on a {condition} face; only a slip face takes "
+                         f"friction (set grid.boundary.{face}: slip)")
 
 
 def rounded_max(low, high, cell):
@@ -184,6 +202,12 @@ GRID = {
             "docs/validation/vibrating_bar.md"),
     "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY),
                       doc="the condition on each face of the grid box"),
+    "friction": Field(mapping(FRICTION), defaults_of(FRICTION),
+                      doc="Coulomb friction on slip faces, e.g. `{z-: 0.3}`: such a face is "
+                          "a wall the material may leave; where it presses on it, its "
+                          "tangential velocity changes by at most mu times the normal "
+                          "change, so a block slides decelerating at mu g or sticks "
+                          "(docs/validation/wall_friction.md)"),
     "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],
                      doc="refined sub-grids tied to the coarse grid (seed 000 Secs. 3-4)"),
     "lost_mass_fraction": Field(number(at_least(0), at_most(1)), 0.0, "1",
