@@ -35,12 +35,14 @@ def test_bar_crossing_cells_keeps_its_energy_and_period_at_cfl_half(tmp_path, sh
     assert periods_from_centroid_velocity(tmp_path) == pytest.approx(PERIOD, rel=0.005)
 
 
-#: the free half of the bar in a window of ratio 2; measured over 5 periods (energy
-#: final / largest, period / 4L/c): gimp +0.05 / +0.22 %, 1.0003; bspline +0.13 /
-#: +0.23 %, 1.0092: the ties interpolate the coarse nodal values linearly, and for
-#: B-splines those are control points, not values (issue 14's 0.5 % is not met there;
-#: B-spline subdivision weights for the ties would be the fix); hats +16.7 / +17.3 %
-PERIOD_ACROSS_TIES = {"gimp": 0.005, "bspline": 0.012}
+#: the free half of the bar in a window of ratio 2; period / 4L/c measured over 2
+#: periods (5): gimp 1.0002 (1.0002), bspline 1.0052 (1.0052), the B-spline bar without
+#: a window 1.0031. Before the coarse nodes just inside the window were tied to the
+#: window nodes (pmpm.kernels.tied.find_inner_ties) the interface was a soft joint:
+#: gimp 1.0024, bspline 1.0109. Issue 14's 0.5 % is met by gimp, missed by bspline by
+#: 0.02 % (its coarse nodal values are control points, and the ties interpolate them
+#: linearly); hats: energy +16.7 / +17.3 %
+PERIOD_ACROSS_TIES = {"gimp": 0.005, "bspline": 0.007}
 
 
 @pytest.mark.parametrize("shape", ["gimp", "bspline"])

@@ -217,6 +217,15 @@ def test_tied_wave_lies_between_fine_and_coarse_after_the_interface(wave_runs):
     assert wave_runs["tied"][2] == pytest.approx(wave_runs["coarse"][2], rel=0.1)
 
 
+
+#: relative momentum drift: hats 1.7e-15 (round-off). The 27-node shapes reach coarse
+#: nodes inside the window, tied to the window nodes; when a coarse particle at the edge
+#: of its support gives such a node a mass below the empty-node cut-off (1e-12 of the
+#: mean particle mass) and nothing else is there, its small force is dropped, as at any
+#: nearly empty node: measured 1.2e-11 (gimp) and 3e-12 (bspline), 1.7e-15 with the
+#: cut-off at 1e-30
+MOMENTUM_DRIFT = {"linear": 1e-13, "gimp": 5e-11, "bspline": 5e-11}
+
 @pytest.mark.parametrize("shape", ["linear", "gimp", "bspline"])
 def test_mass_and_momentum_are_conserved_through_the_tied_interface(tmp_path, shape):
     """No boundary acts (free faces, no gravity): a spinning, expanding elastic block
@@ -236,7 +245,8 @@ def test_mass_and_momentum_are_conserved_through_the_tied_interface(tmp_path, sh
     assert last["mass"].sum() == pytest.approx(first["mass"].sum(), rel=1e-13)
     p0 = first["mass"] @ first["v"]
     p1 = last["mass"] @ last["v"]
-    assert np.abs(p1 - p0).max() < 1e-11 * np.abs(first["mass"] @ np.abs(first["v"])).max()
+    scale = np.abs(first["mass"] @ np.abs(first["v"])).max()
+    assert np.abs(p1 - p0).max() < MOMENTUM_DRIFT[shape] * scale
     assert np.abs(last["v"] - last["v"].mean(axis=0)).max() > 10.0      # it did deform
 
 

@@ -12,6 +12,13 @@ Sec. 3.2, on nodes: ``occupied``), so a free window face stays free.
 
 Ties are stored as rows ``masters`` (n, 8) (local coarse node, -1 if none) and
 ``weights`` (n, 8) beside ``slaves`` (n,) (local window node).
+
+The 27-node shape functions also reach one coarse node layer *inside* a window from the
+coarse particles next to its faces. Such a coarse node is an *inner slave* of the window
+node at the same place (weight 1; :func:`find_inner_ties`, stored the same way with the
+roles of the grids swapped): left alone, it would carry only the few coarse particles
+that reach it, like a node at a free surface, and the interface would be a soft joint
+(a bar's first mode 0.8 % long with B-splines).
 """
 import numpy as np
 from numba import njit
@@ -108,6 +115,52 @@ def _tie(g, ratio, c_shape, c_lo, c_strides, occupied, masters, weights):
                     masters[m], weights[m] = n, w
                 m += 1
     return True
+
+
+@njit(cache=True)
+def find_inner_ties(coarse, window, inner_lo, inner_hi, shell_lo, shell_hi, ratio, ties):
+    """Inner slaves of a window: the coarse nodes (``coarse`` NodeBlock) from
+    ``inner_lo`` to ``inner_hi`` (coarse node indices (3,): the window's nodes, less its
+    faces that are interfaces) that lie on the layer ``shell_lo`` or ``shell_hi`` (3,),
+    the first layer inside an interface face (-1 where there is none), each tied with
+    weight 1 to the window node (``window`` NodeBlock) at the same place where this
+    rank's window block holds it. Fills the first rows of ``ties``; returns how many."""
+    c_lo, c_strides, c_shape = coarse.lo, coarse.strides, coarse.shape
+    w_lo, w_strides, w_shape = window.lo, window.strides, window.shape
+    first, last, g = np.empty(3, np.int64), np.empty(3, np.int64), np.empty(3, np.int64)
+    for d in range(3):
+        first[d] = max(inner_lo[d], c_lo[d])
+        last[d] = min(inner_hi[d], c_lo[d] + c_shape[d] - 1)
+    count = 0
+    for i in range(first[0], last[0] + 1):
+        for j in range(first[1], last[1] + 1):
+            for k in range(first[2], last[2] + 1):
+                g[0], g[1], g[2] = i, j, k
+                if _inner_slave(g, shell_lo, shell_hi, ratio, w_lo, w_shape):
+                    ties.slaves[count] = ((i - c_lo[0]) * c_strides[0] + (j - c_lo[1])
+                                          * c_strides[1] + (k - c_lo[2]) * c_strides[2])
+                    ties.masters[count, :] = -1
+                    ties.weights[count, :] = 0.0
+                    ties.masters[count, 0] = ((i * ratio - w_lo[0]) * w_strides[0]
+                                              + (j * ratio - w_lo[1]) * w_strides[1]
+                                              + (k * ratio - w_lo[2]) * w_strides[2])
+                    ties.weights[count, 0] = 1.0
+                    count += 1
+    return count
+
+
+@njit(cache=True, inline="always")
+def _inner_slave(g, shell_lo, shell_hi, ratio, w_lo, w_shape):
+    """Whether coarse node ``g`` (inside the window) is on the first layer inside one of
+    its interface faces and its window node is in the window block."""
+    shell = False
+    for d in range(3):
+        if g[d] == shell_lo[d] or g[d] == shell_hi[d]:
+            shell = True
+        f = g[d] * ratio - w_lo[d]
+        if f < 0 or f >= w_shape[d]:
+            return False
+    return shell
 
 
 @njit(cache=True)

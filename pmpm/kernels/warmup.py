@@ -87,6 +87,7 @@ def warm_up_ties(pts, geo, block, nodal):
     ties = TieSet(np.zeros(N, np.int64), np.zeros((N, 8), np.int64), np.zeros((N, 8)), 0)
     count = tied.find_ties(block, block.lo, block.lo + 1, 2, block, mask, ties)
     ties = ties._replace(count=count)
+    tied.find_inner_ties(block, block, block.lo, block.lo, block.lo, block.lo, 1, ties)
     tied.slaves_to_masters(ties, nodal, nodal)
     tied.masters_to_slaves(ties, nodal, nodal)
     tied.clear_slave_slots(ties, mask)

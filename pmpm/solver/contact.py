@@ -161,8 +161,8 @@ class ContactFields:
         for kind in kinds:
             kind.mark_bodies(state, mask)
         or_shared_planes(self.world, block.shared_planes, block.as_planes(mask))
-        if state.ties is not None:
-            tied.clear_slave_slots(state.ties, mask)
+        for ties in state.slave_ties:
+            tied.clear_slave_slots(ties, mask)
         self.slot_of = np.empty(block.n_nodes, np.int64)
         self.slot_nodes = kc.number_contact_nodes(mask, self.slot_of)
         self.plane_slots = self._plane_slot_ranges(block)

@@ -52,14 +52,21 @@ class TiedInterface(Coupling):
         self.world = world
         self.occupied = np.zeros(0, np.int64)
         self.buffers = {}
+        self.inner_buffers = {}
 
     def after_scatter(self, grids, kinds):
         """Find every window's tied slaves (on the coarse nodes of cells holding coarse
-        particles, complete over ranks) and add their mass and momentum to the masters."""
+        particles, complete over ranks) and its inner slaves (27-node shapes), and add
+        their mass and momentum to the masters."""
         occupied = self.occupied_nodes(grids.coarse, kinds)
+        grids.coarse.slave_ties = []
         for w in grids.windows:
             w.ties = self.find_ties(w, grids.coarse, occupied)
+            w.slave_ties = [w.ties]
             tied.slaves_to_masters(w.ties, w.nodal, grids.coarse.nodal)
+            w.inner = self.find_inner_ties(w, grids.coarse)
+            grids.coarse.slave_ties.append(w.inner)
+            tied.slaves_to_masters(w.inner, grids.coarse.nodal, w.nodal)
 
     def occupied_nodes(self, coarse, kinds):
         b = coarse.block
@@ -86,17 +93,41 @@ class TiedInterface(Coupling):
                                coarse.nodes, occupied, ties)
         return ties._replace(count=count)
 
+    def find_inner_ties(self, window, coarse):
+        """The coarse nodes on the first layer inside the window's interface faces (those
+        not on the grid box), tied to the window nodes at the same place; none with the
+        hats, which never reach them."""
+        win, n_cells = window.level.window, window.level.n_cells // window.level.ratio
+        interface_lo, interface_hi = win.lo > 0, win.hi < n_cells
+        inner_lo, inner_hi = win.lo + interface_lo, win.hi - interface_hi
+        shell_lo = np.where(interface_lo, win.lo + 1, -1)
+        shell_hi = np.where(interface_hi, win.hi - 1, -1)
+        size = int(np.prod(np.maximum(inner_hi - inner_lo + 1, 0))) if window.level.halo else 0
+        ties = self.inner_buffers.get(window.index)
+        if ties is None or len(ties.slaves) < size:
+            ties = TieSet(np.empty(size, np.int64), np.empty((size, 8), np.int64),
+                          np.empty((size, 8)), 0)
+            self.inner_buffers[window.index] = ties
+        if not size:
+            return ties._replace(count=0)
+        count = tied.find_inner_ties(coarse.nodes, window.nodes, inner_lo, inner_hi,
+                                     shell_lo, shell_hi, window.level.ratio, ties)
+        return ties._replace(count=count)
+
     def after_velocities(self, grids):
         for w in grids.windows:
             tied.masters_to_slaves(w.ties, grids.coarse.gvel, w.gvel)
+            tied.masters_to_slaves(w.inner, w.gvel, grids.coarse.gvel)
 
     def after_forces(self, grids):
         for w in grids.windows:
             tied.slaves_to_masters(w.ties, w.force, grids.coarse.force)
+            tied.slaves_to_masters(w.inner, grids.coarse.force, w.force)
 
     def after_integrate(self, grids, dt):
         for w in grids.windows:
             tied.masters_to_slaves(w.ties, grids.coarse.gnew, w.gnew)
+            tied.masters_to_slaves(w.inner, w.gnew, grids.coarse.gnew)
 
 
 def interior_nodes(block, face_lo, face_hi):

@@ -30,7 +30,11 @@ class Simulation:
         m_tiny = 1e-12 * mean_mass
         self.windows = make_windows(config.grid, grid, bodies.names)
         shape = SHAPE_CODES[config.grid.shape_functions]
-        levels = [Level(grid, w, HALO[shape]) for w in [None] + self.windows]
+        # a window's block reaches one coarse node layer (ratio of its own) beyond its
+        # particles' cells, so that a rank holds the window node of every coarse node it
+        # holds that is tied to one (pmpm.kernels.tied.find_inner_ties)
+        levels = [Level(grid, w, HALO[shape] * (w.ratio if w else 1))
+                  for w in [None] + self.windows]
         self.grids = Hierarchy(levels, world, shape, bodies.half_width)
         self.points = ParticleBodies(particles, bodies, config.gravity, config.time.pic)
         self.kinds = [self.points]
