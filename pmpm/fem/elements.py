@@ -1,0 +1,193 @@
+"""Explicit hexahedral elements (Numba): one-point integration with the Flanagan-Belytschko
+mean gradient, the stress update of the particles' material kernel, hourglass control,
+lumped masses and the central-difference update of the nodes (seed 004 Eqs. 16-21;
+``shared/seeds/004_NOTES.md`` Sec. 1.1).
+
+Per element and step, from the nodal positions ``x`` and the half-step velocities ``v``:
+
+1. ``b_I = dV/dx_I`` and V (:mod:`pmpm.fem.hexahedron`); V <= 0 is a fault;
+2. ``L = sum_I v_I (x) b_I / V`` and the material update
+   ``update_stress_columns`` on the element's row of the material columns, with the
+   characteristic length ``L_e = V / largest face area`` (bulk viscosity);
+3. internal force ``f_I = -(sigma - q I) b_I`` (the element volume times the stress times
+   the mean gradient);
+4. hourglass force ``f_I -= sum_a Q_a gamma_aI`` with the hourglass rates
+   ``q_a = sum_I v_I gamma_aI`` and, per body, either the viscous form
+   ``Q_a = k rho c V^(2/3) / 4 q_a`` or the stiffness form
+   ``Q_a += dt k rho c^2 (sum_I |b_I|^2) / V q_a`` (k the case's coefficient); the work of
+   the hourglass forces, ``dt sum_a Q_a . q_a``, is added to the element's hourglass
+   energy.
+
+Nothing here reads configuration or calls MPI; the arrays come in whole records.
+"""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ..materials.kernels import update_stress_columns
+from .hexahedron import hourglass_shapes, largest_face_area, mean_gradient
+
+#: hourglass forms (``Hourglass.kind``)
+VISCOUS, STIFFNESS = 0, 1
+HOURGLASS_KINDS = {"viscous": VISCOUS, "stiffness": STIFFNESS}
+#: fault codes returned with the element index
+NO_FAULT, NON_POSITIVE_VOLUME, FAILED_UPDATE = 0, 1, 2
+
+#: Nodes and elements: ``x``, ``v`` (n, 3) positions and half-step velocities, ``hexes``
+#: (m, 8) int64 node indices (VTK order), ``body`` (m,) int32 body index of each element.
+ElementMesh = namedtuple("ElementMesh", "x v hexes body")
+#: Per body ``kind`` (nb,) int64 (VISCOUS or STIFFNESS) and ``coefficient`` (nb,); per
+#: element the stiffness form's generalized forces ``resist`` (m, 12) and the hourglass
+#: energy ``energy`` (m,).
+Hourglass = namedtuple("Hourglass", "kind coefficient resist energy")
+
+
+@njit(cache=True)
+def element_forces(mesh, mat, bodies, hourglass, dt, force):
+    """Stress update and internal plus hourglass forces of every element, added to
+    ``force`` (n, 3).
+
+    Parameters
+    ----------
+    mesh : ElementMesh
+    mat : pmpm.materials.state.MaterialState   one row per element, updated in place
+    bodies : pmpm.kernels.records.BodyMaterials
+    hourglass : Hourglass   ``resist`` and ``energy`` updated in place
+    dt : float
+    force : float64 (n, 3)
+
+    Returns
+    -------
+    (rate, bad, why): the largest c / L_e over the elements (1 / their stable time
+    step), the first faulty element (-1: none) and why (NON_POSITIVE_VOLUME,
+    FAILED_UPDATE).
+    """
+    x, v, hexes, body = mesh
+    stress, F, rho, eps_p, e_int, temp, q = mat
+    codes, params, rigid = bodies
+    xe, ve, b = np.empty((8, 3)), np.empty((8, 3)), np.empty((8, 3))
+    gamma, fe, Lg = np.empty((4, 8)), np.empty((8, 3)), np.empty((3, 3))
+    rate, bad, why = 0.0, -1, NO_FAULT
+    for e in range(hexes.shape[0]):
+        for k in range(8):
+            n = hexes[e, k]
+            for i in range(3):
+                xe[k, i] = x[n, i]
+                ve[k, i] = v[n, i]
+        volume = mean_gradient(xe, b)
+        if not volume > 0.0:
+            if bad < 0:
+                bad, why = e, NON_POSITIVE_VOLUME
+            continue
+        length = volume / largest_face_area(xe)
+        for i in range(3):
+            for j in range(3):
+                s = 0.0
+                for k in range(8):
+                    s += ve[k, i] * b[k, j]
+                Lg[i, j] = s / volume
+        bb = body[e]
+        c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
+                                  eps_p, e_int, temp, q)
+        if not c >= 0.0:
+            if bad < 0:
+                bad, why = e, FAILED_UPDATE
+            continue
+        rate = max(rate, c / length)
+        stress_forces(stress[e], q[e], b, fe)
+        hourglass_shapes(xe, b, volume, gamma)
+        hourglass.energy[e] += hourglass_forces(e, ve, b, gamma, volume, rho[e], c, dt,
+                                               hourglass.kind[bb], hourglass.coefficient[bb],
+                                               hourglass.resist, fe)
+        for k in range(8):
+            n = hexes[e, k]
+            for i in range(3):
+                force[n, i] += fe[k, i]
+    return rate, bad, why
+
+
+@njit(cache=True, inline="always")
+def stress_forces(sig, q, b, fe):
+    """fe[I] = -(sigma - q I) b_I, sigma a Voigt row (xx yy zz xy yz zx)."""
+    sxx, syy, szz = sig[0] - q, sig[1] - q, sig[2] - q
+    sxy, syz, szx = sig[3], sig[4], sig[5]
+    for k in range(8):
+        bx, by, bz = b[k, 0], b[k, 1], b[k, 2]
+        fe[k, 0] = -(sxx * bx + sxy * by + szx * bz)
+        fe[k, 1] = -(sxy * bx + syy * by + syz * bz)
+        fe[k, 2] = -(szx * bx + syz * by + szz * bz)
+
+
+@njit(cache=True, inline="always")
+def hourglass_forces(e, ve, b, gamma, volume, rho, c, dt, kind, coefficient, resist, fe):
+    """Subtract the hourglass forces of element ``e`` from ``fe``; returns their work
+    over the step, dt sum_a Q_a . q_a."""
+    if kind == STIFFNESS:
+        bb = 0.0
+        for k in range(8):
+            bb += b[k, 0] * b[k, 0] + b[k, 1] * b[k, 1] + b[k, 2] * b[k, 2]
+        gain = dt * coefficient * rho * c * c * bb / volume
+    else:
+        gain = 0.25 * coefficient * rho * c * volume ** (2.0 / 3.0)
+    work = 0.0
+    for a in range(4):
+        for i in range(3):
+            rate = 0.0
+            for k in range(8):
+                rate += ve[k, i] * gamma[a, k]
+            if kind == STIFFNESS:
+                resist[e, 3 * a + i] += gain * rate
+                generalized = resist[e, 3 * a + i]
+            else:
+                generalized = gain * rate
+            work += generalized * rate
+            for k in range(8):
+                fe[k, i] -= generalized * gamma[a, k]
+    return dt * work
+
+
+@njit(cache=True)
+def lumped_masses(hexes, volumes, densities, mass):
+    """mass[n] = sum over the elements at node n of rho0 V0 / 8 (``mass`` zeroed first)."""
+    mass[:] = 0.0
+    for e in range(hexes.shape[0]):
+        share = densities[e] * volumes[e] / 8.0
+        for k in range(8):
+            mass[hexes[e, k]] += share
+
+
+@njit(cache=True)
+def external_forces(mass, gravity, load, load_scale, load_vectors, force):
+    """Add gravity m g and each loaded node's share ``load_scale * load_vectors[load]``
+    (``load`` -1: none) to ``force``."""
+    for n in range(mass.shape[0]):
+        for i in range(3):
+            force[n, i] += mass[n] * gravity[i]
+        if load[n] >= 0:
+            for i in range(3):
+                force[n, i] += load_scale[n] * load_vectors[load[n], i]
+
+
+@njit(cache=True)
+def advance_velocities(v, force, mass, fixed, dt):
+    """Central difference v <- v + dt f / m at the nodes; then the constraints: ``fixed``
+    (n, 3) bool, True where that velocity component is held at zero."""
+    for n in range(v.shape[0]):
+        inv = dt / mass[n]
+        for i in range(3):
+            v[n, i] = 0.0 if fixed[n, i] else v[n, i] + force[n, i] * inv
+
+
+@njit(cache=True)
+def advance_positions(x, v, dt):
+    """x <- x + dt v (v the new half-step velocity); returns the first node whose
+    position is not finite (-1: none)."""
+    bad = -1
+    for n in range(x.shape[0]):
+        for i in range(3):
+            x[n, i] += dt * v[n, i]
+        if bad < 0 and not (np.isfinite(x[n, 0]) and np.isfinite(x[n, 1])
+                            and np.isfinite(x[n, 2])):
+            bad = n
+    return bad
