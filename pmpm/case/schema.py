@@ -10,6 +10,7 @@ from .contact import CONTACT, check_contact
 from .windows import WINDOW, check_window_bodies, check_windows
 from .bodies import BODY, check_bodies_in_grid, check_mesh_files, check_min_below_max
 from .errors import CaseError, Problems, join, unknown_name
+from .fem import check_fem_bodies
 from .fields import (INVALID, Checked, Custom, Field, Marker, Tagged, at_least, at_most,
                      boolean, choice, defaults_of, greater, has_invalid, integer, list_of,
                      mapping, number, number_list, read_mapping, text, valid, vector)
@@ -232,6 +233,7 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     case = read_mapping(tree, "", top_level_fields(default_title), problems)
     case["params"] = params
     check_references(case, problems)
+    check_fem_bodies(case, case_dir, check_geometry, problems)
     bodies = [] if case["bodies"] is INVALID else case["bodies"]
     if check_geometry and valid(case["grid"], "min", "max", "cell", "windows", "boundary"):
         if _fits_in_memory(case, bodies, case_dir, problems):

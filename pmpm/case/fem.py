@@ -1,0 +1,106 @@
+"""The keys of an FEM body (``method: fem``, ``fem:``) and the checks that relate them to
+the rest of the case: the geometries an FEM mesh is made from, a readable and
+well-oriented mesh, no grid contact or window that would need coupling to particles
+(seed 004's CFEMP and ICFEMP are not built yet)."""
+from .errors import join
+from .fields import INVALID, OMIT, Field, choice, greater, at_least, number, valid
+from .hexmesh import InvertedElementError, hex_mesh
+from .mesh import MeshReadError
+
+METHODS = ("particles", "fem")
+HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
+FEM_GEOMETRIES = ("box", "mesh")
+FEM = {
+    "element_size": Field(number(greater(0)), OMIT, "mm",
+                          "edge of the elements a box is cut into: round(edge / "
+                          "element_size) elements, at least 1, along each edge of the box "
+                          "(left out: grid.cell); a mesh file keeps its own elements"),
+    "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
+                       doc="Flanagan-Belytschko hourglass control of the one-point "
+                           "elements: `stiffness` resists the hourglass displacement "
+                           "(elastic plates, slow loading), `viscous` its rate (impact)"),
+    "hourglass_coefficient": Field(number(at_least(0)), OMIT, "1",
+                                   "the hourglass coefficient k (left out: 0.05 for "
+                                   "stiffness, 0.1 for viscous): viscous Q = k rho c "
+                                   "V^(2/3)/4 q, stiffness dQ/dt = k rho c^2 (sum of b.b)/(3V) q, "
+                                   "with q the hourglass velocity rates"),
+}
+METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it is a mesh "
+              "of 8-node hexahedra (box or mesh geometry) advanced by explicit central "
+              "differences with lumped masses, one-point integration and hourglass "
+              "control (seed 004 Sec. 2.3), on one MPI rank for now. FEM bodies feel "
+              "gravity, loads and the grid's face conditions (a node on a fixed, slip "
+              "or symmetry face takes that condition) but are not yet coupled to particle "
+              "bodies: they pass through them")
+
+
+def check_fem_bodies(case, case_dir, check_geometry, problems):
+    """Complete each FEM body's ``fem`` mapping (element size, hourglass coefficient) and
+    report what an FEM body cannot be used with yet."""
+    bodies = case["bodies"] if case["bodies"] is not INVALID else []
+    fem_names = set()
+    for i, body in enumerate(bodies):
+        if not valid(body, "method", "fem") or body["method"] != "fem":
+            continue
+        path = join("bodies", i)
+        if valid(body, "name"):
+            fem_names.add(body["name"])
+        complete_fem(body["fem"], case["grid"])
+        check_fem_material(body, case["materials"], path, problems)
+        if valid(body, "geometry"):
+            check_fem_geometry(body, case_dir, check_geometry, path, problems)
+    if fem_names:
+        check_no_coupling(case, fem_names, problems)
+
+
+def complete_fem(fem, grid):
+    if valid(fem, "hourglass"):
+        fem.setdefault("hourglass_coefficient", HOURGLASS_DEFAULTS[fem["hourglass"]])
+    if "element_size" not in fem and valid(grid, "cell"):
+        fem["element_size"] = grid["cell"]
+
+
+def check_fem_material(body, materials, path, problems):
+    if not (valid(body, "material") and isinstance(materials, dict)):
+        return
+    material = materials.get(body["material"])
+    if isinstance(material, dict) and material.get("model") == "rigid":
+        problems.add(join(path, "material"), "a rigid FEM body is not supported yet; use "
+                     "method: particles for a rigid body")
+
+
+def check_fem_geometry(body, case_dir, check_geometry, path, problems):
+    geometry = body["geometry"]
+    if geometry["type"] not in FEM_GEOMETRIES:
+        problems.add(join(join(path, "geometry"), "type"),
+                     f"an FEM body is made from a box or a mesh for now, not a "
+                     f"{geometry['type']}")
+        return
+    if not check_geometry or not valid(body["fem"], "element_size"):
+        return
+    key = join(join(path, "geometry"), "file" if geometry["type"] == "mesh" else "type")
+    try:
+        hex_mesh(geometry, body["fem"]["element_size"], case_dir)
+    except MeshReadError as error:
+        problems.add(key, f"cannot read {geometry['file']!r}: {error}")
+    except InvertedElementError as error:
+        problems.add(key, str(error))
+
+
+def check_no_coupling(case, fem_names, problems):
+    """Grid contact and window-following would need FE nodes on the grid (CFEMP)."""
+    contact = case["contact"]
+    if valid(contact, "pairs"):
+        for i, pair in enumerate(contact["pairs"]):
+            named = [n for n in pair.get("bodies", []) if n in fem_names] \
+                if isinstance(pair, dict) else []
+            if named:
+                problems.add(join(join("contact.pairs", i), "bodies"),
+                             f"'{named[0]}' is an FEM body: FEM bodies take no part in "
+                             f"grid contact yet")
+    grid = case["grid"]
+    windows = grid.get("windows") if isinstance(grid, dict) else None
+    for i, window in enumerate(windows if isinstance(windows, list) else []):
+        if valid(window, "follow") and window["follow"] in fem_names:
+            problems.add(f"grid.windows[{i}].follow", f"'{window['follow']}' is an FEM "
+                         f"body: a window follows particle bodies only")
