@@ -1,0 +1,45 @@
+"""Frames of the FEM bodies (``DIR/elements.h5``), beside particles.h5, at the same times.
+
+File layout::
+
+    /                     attrs: body_names, frames (count)
+    /mesh/hexes (m, 8)    int64 node indices, VTK order; /mesh/body (m,) int32
+    /frames/000000        attrs: time, step
+        node_x (n,3) node_v (n,3)   node positions and half-step velocities
+        stress (m,6; attr components = "xx,yy,zz,xy,yz,zx") eps_p density e_int
+        centroid (m,3) hourglass_energy (m,)
+
+FEM bodies run on one rank for now, so this file is written by that rank alone (the
+collective writer of issue 16 comes with elements over MPI).
+"""
+import h5py
+
+from .particles_h5 import STRESS_COMPONENTS
+
+
+class ElementWriter:
+    """Writes element frames of a :class:`pmpm.solver.fem_bodies.FemBodies`."""
+
+    def __init__(self, path, elements, body_names):
+        self.elements = elements
+        self.file = h5py.File(path, "w")
+        self.file.attrs["body_names"] = list(body_names)
+        self.file.create_dataset("mesh/hexes", data=elements.hexes)
+        self.file.create_dataset("mesh/body", data=elements.body)
+        self.frames = self.file.create_group("frames")
+        self.count = 0
+
+    def write_frame(self, time, step):
+        group = self.frames.create_group(f"{self.count:06d}")
+        group.attrs["time"], group.attrs["step"] = float(time), int(step)
+        for name, column in self.elements.frame().items():
+            group.create_dataset(name, data=column)
+        group["stress"].attrs["components"] = STRESS_COMPONENTS
+        self.count += 1
+        self.file.attrs["frames"] = self.count
+        self.file.flush()
+
+    def close(self):
+        if self.file:
+            self.file.close()
+            self.file = None
