@@ -23,6 +23,8 @@ def run_case(world, args):
     prepare_output(world, out, args.force, args.restart, case_path=args.case)
     checkpoint = None
     if args.restart:
+        from .solver.simulation import refuse_fem_restart
+        _set_up(refuse_fem_restart, config)
         checkpoint = choose_checkpoint(world, out)
         case_text = check_restart_case(world, checkpoint, case, case_text)
     from .kernels.shape import SHAPE_CODES

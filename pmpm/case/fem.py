@@ -2,9 +2,12 @@
 the rest of the case: the geometries an FEM mesh is made from, a readable and
 well-oriented mesh, no grid contact or window that would need coupling to particles
 (seed 004's CFEMP and ICFEMP are not built yet)."""
+import numpy as np
+
 from .errors import join
-from .fields import INVALID, OMIT, Field, choice, greater, at_least, number, valid
-from .hexmesh import InvertedElementError, hex_mesh
+from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, number,
+                     valid)
+from .hexmesh import InvertedElementError, box_counts, hex_mesh
 from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
@@ -69,22 +72,46 @@ def check_fem_material(body, materials, path, problems):
                      "method: particles for a rigid body")
 
 
+#: The most elements a box body may be cut into (each takes about 1 kB with its nodes).
+MAX_ELEMENTS = 1e8
+
+
 def check_fem_geometry(body, case_dir, check_geometry, path, problems):
     geometry = body["geometry"]
+    if has_invalid(geometry):
+        return
     if geometry["type"] not in FEM_GEOMETRIES:
         problems.add(join(join(path, "geometry"), "type"),
                      f"an FEM body is made from a box or a mesh for now, not a "
                      f"{geometry['type']}")
         return
-    if not check_geometry or not valid(body["fem"], "element_size"):
+    if not valid(body["fem"], "element_size") or too_many_elements(body, path, problems):
+        return
+    if not check_geometry:
         return
     key = join(join(path, "geometry"), "file" if geometry["type"] == "mesh" else "type")
     try:
         hex_mesh(geometry, body["fem"]["element_size"], case_dir)
     except MeshReadError as error:
-        problems.add(key, f"cannot read {geometry['file']!r}: {error}")
+        line = f"{key}: cannot read {geometry['file']!r}: {error}"
+        if line not in problems.lines:       # the particle fill's check may have said it
+            problems.add(key, line[len(key) + 2:])
     except InvertedElementError as error:
         problems.add(key, str(error))
+
+
+def too_many_elements(body, path, problems):
+    geometry, size = body["geometry"], body["fem"]["element_size"]
+    if geometry["type"] != "box":
+        return False
+    count = float(np.prod(box_counts(geometry["min"], geometry["max"], size)
+                          .astype(np.float64)))
+    if count > MAX_ELEMENTS:
+        problems.add(join(join(path, "fem"), "element_size"),
+                     f"{size:g} cuts the box into {count:.3g} elements, more than "
+                     f"{MAX_ELEMENTS:.0e}")
+        return True
+    return False
 
 
 def check_no_coupling(case, fem_names, problems):

@@ -23,7 +23,7 @@ class InvertedElementError(ValueError):
 def box_counts(lo, hi, element_size):
     """Elements per direction of a box: round(edge / element_size), at least 1."""
     edges = np.asarray(hi, float) - np.asarray(lo, float)
-    return np.maximum(np.rint(edges / element_size), 1).astype(np.int64)
+    return np.maximum(np.rint(np.minimum(edges / element_size, 2.0 ** 62)), 1).astype(np.int64)
 
 
 def box_mesh(lo, hi, counts):

@@ -233,13 +233,13 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     case = read_mapping(tree, "", top_level_fields(default_title), problems)
     case["params"] = params
     check_references(case, problems)
-    check_fem_bodies(case, case_dir, check_geometry, problems)
     bodies = [] if case["bodies"] is INVALID else case["bodies"]
     if check_geometry and valid(case["grid"], "min", "max", "cell", "windows", "boundary"):
         if _fits_in_memory(case, bodies, case_dir, problems):
             check_bodies_in_grid(bodies, case["grid"], case_dir, problems)
     else:
         check_mesh_files(bodies, case_dir, problems)
+    check_fem_bodies(case, case_dir, check_geometry, problems)
     problems.raise_if_any()
     return case
 

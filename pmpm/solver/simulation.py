@@ -97,10 +97,7 @@ class Simulation:
 
     @classmethod
     def from_checkpoint(cls, world, config, scalars, columns):
-        fem = [i for i, b in enumerate(config.bodies) if b.method == "fem"]
-        if fem:
-            raise SetupError([f"bodies[{fem[0]}].method: a run with FEM bodies cannot "
-                              f"--restart yet (checkpoints hold the particles only)"])
+        refuse_fem_restart(config)
         grid = CoarseGrid.from_config(config.grid)
         bodies = BodyTable(config)
         particles = Particles(columns)
@@ -229,6 +226,14 @@ def refuse_fem_on_ranks(world, config):
     if fem and world.size > 1:
         raise SetupError([f"bodies[{fem[0]}].method: FEM bodies run on one rank for now; "
                           f"run this case with 1 rank (got {world.size})"])
+
+
+def refuse_fem_restart(config):
+    """A SetupError: checkpoints do not hold FEM bodies yet."""
+    fem = [i for i, b in enumerate(config.bodies) if b.method == "fem"]
+    if fem:
+        raise SetupError([f"bodies[{fem[0]}].method: a run with FEM bodies cannot "
+                          f"--restart yet (checkpoints hold the particles only)"])
 
 
 def build_on_every_rank(world, build):

@@ -1,0 +1,147 @@
+"""FEM bodies in a run: meshes from a box or a meshio file (rotated), gravity, and the
+input they refuse with one line naming the key (exit 2): an FEM body of another shape,
+a mesh without hexahedra, an inverted element, a missing file, grid contact with an FEM
+body, more than one rank, --restart."""
+import json
+import os
+
+import meshio
+import numpy as np
+import pytest
+import yaml
+
+from clihelp import pmpm, pmpm_lines, read_history
+from pmpm.case import CaseError, load_case
+from pmpm.case.hexmesh import box_mesh, centre_jacobians, hex_mesh
+
+G = -9.81e-3 * 1000.0        # mm/ms^2, strong so that a few steps move visibly
+
+
+def case_tree(geometry, **extra):
+    tree = {
+        "grid": {"min": [-10, -10, -10], "max": [10, 10, 10], "cell": 1.0},
+        "gravity": [0, 0, G],
+        "materials": {"steel": {"model": "elastic", "density": 7.8e-3, "E": 2e5,
+                                "nu": 0.3}},
+        "bodies": [{"name": "block", "material": "steel", "method": "fem",
+                    "geometry": geometry, "fem": {"element_size": 1.0}}],
+        "time": {"end": 0.01},
+        "output": {"frames": 2},
+    }
+    tree.update(extra)
+    return tree
+
+
+def write_case(tmp_path, tree, name="case.yaml"):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(tree))
+    return path
+
+
+def write_hex_mesh(path, invert=False):
+    """A 2 x 2 x 2 block of unit hexahedra in a .vtu file."""
+    points, hexes = box_mesh([0, 0, 0], [2, 2, 2], [2, 2, 2])
+    if invert:
+        hexes[3] = hexes[3][[4, 5, 6, 7, 0, 1, 2, 3]]
+    meshio.write(str(path), meshio.Mesh(points, [("hexahedron", hexes)]))
+
+
+def test_a_rotated_box_mesh_has_positive_elements_and_the_box_volume():
+    geometry = {"type": "box", "min": [0, 0, 0], "max": [3, 2, 1],
+                "rotate": {"axis": [1, 1, 0], "angle_deg": 37, "origin": [0, 0, 0]}}
+    points, hexes = hex_mesh(geometry, 0.5)
+    assert hexes.shape == (6 * 4 * 2, 8)
+    jac = centre_jacobians(points, hexes)
+    assert (jac > 0).all() and 8 * jac.sum() == pytest.approx(6.0, rel=1e-12)
+
+
+def test_hourglass_coefficient_defaults_follow_the_form(tmp_path):
+    geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
+    case = load_case(write_case(tmp_path, case_tree(geometry)))
+    assert case["bodies"][0]["fem"] == {"element_size": 1.0, "hourglass": "stiffness",
+                                        "hourglass_coefficient": 0.05}
+    tree = case_tree(geometry)
+    tree["bodies"][0]["fem"] = {"hourglass": "viscous"}
+    case = load_case(write_case(tmp_path, tree, "viscous.yaml"))
+    assert case["bodies"][0]["fem"] == {"element_size": 1.0, "hourglass": "viscous",
+                                        "hourglass_coefficient": 0.1}
+
+
+def test_a_mesh_body_falls_freely_under_gravity(tmp_path):
+    """Central differences give v = g t exactly for a free body; the mesh is read with
+    meshio, turned by rotate, and reported like a particle body."""
+    write_hex_mesh(tmp_path / "block.vtu")
+    geometry = {"type": "mesh", "file": "block.vtu", "translate": [-1, -1, -1],
+                "rotate": {"axis": [0, 1, 1], "angle_deg": 30}}
+    out = tmp_path / "out"
+    done = pmpm([write_case(tmp_path, case_tree(geometry)), "--out", out, "--quiet"])
+    assert done.returncode == 0, done.stderr
+    with open(out / "summary.json") as f:
+        summary = json.load(f)
+    block = summary["bodies"]["block"]
+    assert block["mass"] == pytest.approx(8 * 7.8e-3, rel=1e-12)
+    assert block["n_elements"] == 8 and block["n_nodes"] == 27
+    assert block["velocity"] == pytest.approx([0, 0, G * summary["t_end"]], abs=1e-12)
+    assert block["energy"]["internal"] < 1e-9 * block["energy"]["kinetic"]
+    header, rows = read_history(out)
+    vz = rows[:, header.index("block.vz")]
+    assert vz == pytest.approx(G * rows[:, header.index("time")], abs=1e-12)
+
+
+@pytest.mark.parametrize("geometry, key, words", [
+    ({"type": "sphere", "center": [0, 0, 0], "radius": 2}, "bodies[0].geometry.type",
+     "an FEM body is made from a box or a mesh"),
+    ({"type": "mesh", "file": "tets.vtu"}, "bodies[0].geometry.file",
+     "no hexahedron cells"),
+    ({"type": "mesh", "file": "inverted.vtu"}, "bodies[0].geometry.file",
+     "element 3 (of 1 such) is inverted"),
+    ({"type": "mesh", "file": "missing.vtu"}, "bodies[0].geometry.file", "no such file"),
+    ({"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}, "bodies[0].fem.element_size",
+     "elements, more than 1e+08"),
+])
+def test_bad_fem_bodies_are_refused_with_one_line(tmp_path, geometry, key, words):
+    write_hex_mesh(tmp_path / "inverted.vtu", invert=True)
+    tet = meshio.Mesh(np.eye(4, 3), [("tetra", np.array([[0, 1, 2, 3]]))])
+    meshio.write(str(tmp_path / "tets.vtu"), tet)
+    tree = case_tree(geometry)
+    if key.endswith("element_size"):
+        tree["bodies"][0]["fem"]["element_size"] = 1e-6
+    with pytest.raises(CaseError) as error:
+        load_case(write_case(tmp_path, tree))
+    [line] = error.value.problems
+    assert line.startswith(key + ":") and words in line, line
+
+
+def test_grid_contact_with_an_fem_body_is_refused(tmp_path):
+    geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
+    tree = case_tree(geometry)
+    tree["bodies"].append({"name": "ball", "material": "steel",
+                           "geometry": {"type": "sphere", "center": [0, 0, -5],
+                                        "radius": 2}})
+    tree["contact"] = {"method": 2, "pairs": [{"bodies": ["ball", "block"]}]}
+    with pytest.raises(CaseError) as error:
+        load_case(write_case(tmp_path, tree))
+    assert error.value.problems == ["contact.pairs[0].bodies: 'block' is an FEM body: FEM "
+                                    "bodies take no part in grid contact yet"]
+
+
+def test_more_than_one_rank_stops_at_set_up(tmp_path):
+    geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
+    done = pmpm([write_case(tmp_path, case_tree(geometry)), "--out", tmp_path / "out"],
+                ranks=2)
+    assert done.returncode == 2
+    lines = pmpm_lines(done.stderr)
+    assert len(set(lines)) == 1 and "bodies[0].method: FEM bodies run on one rank for " \
+        "now" in lines[0], lines
+
+
+def test_restart_is_refused(tmp_path):
+    geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
+    case = write_case(tmp_path, case_tree(geometry))
+    out = tmp_path / "out"
+    assert pmpm([case, "--out", out, "--quiet"]).returncode == 0
+    done = pmpm([case, "--out", out, "--restart", "--set", "time.end=0.02", "--quiet"])
+    assert done.returncode == 2
+    lines = pmpm_lines(done.stderr)
+    assert len(lines) == 1 and "cannot --restart yet" in lines[0], lines
+    assert os.path.exists(out / "elements.h5")
