@@ -4,7 +4,7 @@ element centroids against the 1D solution at 7.6, 15.6 and 41.6 us for elements 
 this script too. Writes results/validation/fem_wave_bar.{json,md,png}.
 
 The long faces are slip faces, so the bar is one-dimensional whatever its width; by
-default it is one element (FEM) or two cells (MPM) wide. FEM bodies run on one rank.
+default it is one element (FEM) or two cells (MPM) wide. Both run on one rank.
 
 Usage: .venv/bin/python scripts/fem_wave_bar.py [--width MM] [--no-mpm]
 """

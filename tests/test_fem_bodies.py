@@ -1,10 +1,11 @@
 """FEM bodies in a run: meshes from a box or a meshio file (rotated), gravity, and the
 input they refuse with one line naming the key (exit 2): an FEM body of another shape,
 a mesh without hexahedra, an inverted element, a missing file, grid contact with an FEM
-body, more than one rank, --restart."""
+body, --restart; the partition over ranks, and 1 rank against 2."""
 import json
 import os
 
+import h5py
 import meshio
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ import yaml
 from clihelp import pmpm, pmpm_lines, read_history
 from pmpm.case import CaseError, load_case
 from pmpm.case.hexmesh import box_mesh, centre_jacobians, hex_mesh
+from pmpm.solver.fem_partition import partition_mesh
 
 G = -9.81e-3 * 1000.0        # mm/ms^2, strong so that a few steps move visibly
 
@@ -125,14 +127,42 @@ def test_grid_contact_with_an_fem_body_is_refused(tmp_path):
                                     "bodies take no part in grid contact yet"]
 
 
-def test_more_than_one_rank_stops_at_set_up(tmp_path):
-    geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
-    done = pmpm([write_case(tmp_path, case_tree(geometry)), "--out", tmp_path / "out"],
-                ranks=2)
-    assert done.returncode == 2
-    lines = pmpm_lines(done.stderr)
-    assert len(set(lines)) == 1 and "bodies[0].method: FEM bodies run on one rank for " \
-        "now" in lines[0], lines
+def test_partition_owns_each_element_once_and_shares_nodes_symmetrically():
+    points, hexes = box_mesh([0, 0, 0], [3, 2, 2], [6, 2, 3])
+    owner = np.random.default_rng(0).integers(0, 3, len(hexes))
+    parts = [partition_mesh(hexes, len(points), owner, r, 3) for r in range(3)]
+    assert sorted(np.concatenate([p.elements for p in parts])) == list(range(len(hexes)))
+    owned = np.concatenate([p.nodes[p.owned] for p in parts])
+    assert sorted(owned) == list(range(len(points)))
+    for r, part in enumerate(parts):
+        assert (part.nodes[part.hexes] == hexes[part.elements]).all()
+        for other, local in part.partners:
+            back = dict(parts[other].partners)[r]
+            assert (part.nodes[local] == parts[other].nodes[back]).all()
+
+
+def test_two_ranks_give_the_one_rank_answer(tmp_path):
+    """The copper block of runs/fem_block.yaml (Johnson-Cook, viscous hourglass control)
+    hitting a wall, 8 x 8 x 8 elements: the slab plane cuts the mesh, and the nodes on it
+    are shared."""
+    case = os.path.join(os.path.dirname(__file__), "..", "runs", "fem_block.yaml")
+    sets = ["--set", "params.edge=4", "--set", "time.end=0.002", "--quiet"]
+    frames = []
+    for ranks in (1, 2):
+        out = tmp_path / f"r{ranks}"
+        done = pmpm([case, "--out", out, *sets], ranks=ranks)
+        assert done.returncode == 0, done.stderr
+        with h5py.File(out / "elements.h5") as f:
+            last = f["frames"][sorted(f["frames"])[-1]]
+            frames.append({k: last[k][:] for k in ("node_x", "node_v", "stress")})
+        with open(out / "summary.json") as f:
+            assert json.load(f)["n_elements"] == 512
+    one, two = frames
+    assert np.abs(one["node_x"] - two["node_x"]).max() < 1e-10 * 4.0
+    assert np.abs(one["node_v"] - two["node_v"]).max() < 1e-10 * 190.0
+    scale = np.abs(one["stress"]).max()
+    assert scale > 100.0                               # it did hit the wall
+    assert np.abs(one["stress"] - two["stress"]).max() < 1e-10 * scale
 
 
 def test_restart_is_refused(tmp_path):

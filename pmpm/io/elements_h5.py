@@ -9,8 +9,8 @@ File layout::
         stress (m,6; attr components = "xx,yy,zz,xy,yz,zx") eps_p density e_int
         centroid (m,3) hourglass_energy (m,)
 
-FEM bodies run on one rank for now, so this file is written by that rank alone (the
-collective writer of issue 16 comes with elements over MPI).
+Rank 0 writes it: every rank sends it its owned nodes and its elements at each frame
+(a gather; the collective parallel writer is still to come).
 """
 import h5py
 
@@ -18,24 +18,30 @@ from .particles_h5 import STRESS_COMPONENTS
 
 
 class ElementWriter:
-    """Writes element frames of a :class:`pmpm.solver.fem_bodies.FemBodies`."""
+    """Writes element frames of a :class:`pmpm.solver.fem_bodies.FemBodies`; every
+    method is collective (rank 0 writes)."""
 
-    def __init__(self, path, elements, body_names):
+    def __init__(self, path, elements, body_names, is_root):
         self.elements = elements
-        self.file = h5py.File(path, "w")
-        self.file.attrs["body_names"] = list(body_names)
-        self.file.create_dataset("mesh/hexes", data=elements.hexes)
-        self.file.create_dataset("mesh/body", data=elements.body)
-        self.frames = self.file.create_group("frames")
+        self.file = h5py.File(path, "w") if is_root else None
+        if self.file:
+            hexes, body, _ = elements.output_mesh
+            self.file.attrs["body_names"] = list(body_names)
+            self.file.create_dataset("mesh/hexes", data=hexes)
+            self.file.create_dataset("mesh/body", data=body)
+            self.frames = self.file.create_group("frames")
         self.count = 0
 
     def write_frame(self, time, step):
-        group = self.frames.create_group(f"{self.count:06d}")
+        columns = self.elements.frame()
+        self.count += 1
+        if not self.file:
+            return
+        group = self.frames.create_group(f"{self.count - 1:06d}")
         group.attrs["time"], group.attrs["step"] = float(time), int(step)
-        for name, column in self.elements.frame().items():
+        for name, column in columns.items():
             group.create_dataset(name, data=column)
         group["stress"].attrs["components"] = STRESS_COMPONENTS
-        self.count += 1
         self.file.attrs["frames"] = self.count
         self.file.flush()
 

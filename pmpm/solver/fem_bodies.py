@@ -11,20 +11,25 @@ In each step, from the positions x^k and the velocities v^(k-1/2):
   nodes that lie on them;
 * ``move``: x^(k+1) = x^k + dt v^(k+1/2).
 
-No coupling to particles yet (CFEMP, ICFEMP); every element and node lives on the one
-rank a run with FEM bodies has for now.
+No coupling to particles yet (CFEMP, ICFEMP). Over MPI an element belongs to the rank
+whose slab held its centroid at set-up and stays there (the elements are not on the
+grid, so where they live changes no answer); the forces of the nodes that several ranks
+hold are summed over them in rank order (pmpm.comm.shared_nodes), so every copy of a
+node moves the same and 1 rank agrees with N to round-off.
 """
 import numpy as np
 
 from ..fem.elements import (FAILED_UPDATE, HOURGLASS_KINDS, NON_POSITIVE_VOLUME,
                             ElementMesh, Hourglass, advance_positions, advance_velocities,
                             element_forces, external_forces, lumped_masses)
+from ..comm.shared_nodes import sum_shared_rows
 from ..fem.hexahedron import FACES, element_geometry, element_volumes
 from ..kernels.records import BodyMaterials
 from ..materials import layout
 from ..materials.state import MaterialState
 from .bodies import initial_field
 from .errors import SetupError
+from .fem_partition import element_owners, partition_mesh
 
 FAULTS = {NON_POSITIVE_VOLUME: "non-positive volume (inverted or collapsed element)",
           FAILED_UPDATE: "constitutive update failed (NaN, non-convergence or "
@@ -32,26 +37,35 @@ FAULTS = {NON_POSITIVE_VOLUME: "non-positive volume (inverted or collapsed eleme
 
 
 class FemBodies:
-    """The nodes and elements of every FEM body, concatenated.
+    """This rank's elements (those whose centroid lies in its slab) and their nodes, of
+    every FEM body, concatenated; nodes that elements of other ranks use too are shared
+    (their forces are summed over the sharers) and counted by the lowest sharer.
 
     Parameters
     ----------
-    meshes : dict body index -> (points (n, 3), hexes (m, 8))
+    meshes : dict body index -> (points (n, 3), hexes (m, 8)), the whole meshes
     config : pmpm.case.CaseConfig
     table : solver.bodies.BodyTable
+    world : comm.World
+    grid, slabs : the coarse grid and its slabs (element ownership at set-up; elements
+        stay with their rank, as they are not on the grid)
     """
 
     label = "element"
 
-    def __init__(self, meshes, config, table):
-        self.table, self.config = table, config
+    def __init__(self, meshes, config, table, world, grid, slabs):
+        self.table, self.config, self.world = table, config, world
         self.names = table.names
         self.body_indices = sorted(meshes)
         self.h = float(config.grid.cell)
         self.gravity = np.asarray(config.gravity, np.float64)
         self.load_vectors = np.zeros((1, 3))
         self.materials = BodyMaterials(table.codes, table.params, table.rigid)
-        self.build_mesh(meshes)
+        whole = WholeMesh(meshes, self.body_indices, table)
+        self.whole = whole
+        owner = element_owners(whole.centroids(), grid, slabs)
+        part = partition_mesh(whole.hexes, len(whole.x), owner, world.rank, world.size)
+        self.take_part(whole, part)
         self.build_state(config)
         self.fixed = face_constraints(self.x, config.grid)
         self.load, self.load_scale = np.full(len(self.x), -1, np.int32), np.zeros(len(self.x))
@@ -59,28 +73,22 @@ class FemBodies:
         self.speed, self.fault = 0.0, None
 
     # -- set-up -------------------------------------------------------------------------
-    def build_mesh(self, meshes):
-        xs, hexes, node_body, elem_body, offset = [], [], [], [], 0
-        for b in self.body_indices:
-            points, cells = meshes[b]
-            xs.append(points)
-            hexes.append(cells + offset)
-            node_body.append(np.full(len(points), b, np.int32))
-            elem_body.append(np.full(len(cells), b, np.int32))
-            offset += len(points)
-        self.x = np.ascontiguousarray(np.concatenate(xs), np.float64)
-        self.hexes = np.ascontiguousarray(np.concatenate(hexes), np.int64)
-        self.node_body = np.concatenate(node_body)
-        self.body = np.concatenate(elem_body)
+    def take_part(self, whole, part):
+        self.element_id, self.node_id = part.elements, part.nodes
+        self.partners, self.owned = part.partners, part.owned
+        self.x = np.ascontiguousarray(whole.x[part.nodes])
+        self.hexes = np.ascontiguousarray(part.hexes, np.int64)
+        self.node_body = whole.node_body[part.nodes]
+        self.body = whole.body[part.elements]
+        self.vol0 = whole.vol0[part.elements]
+        self.mass = whole.mass[part.nodes]
+        self.first_element = {b: int(np.flatnonzero(whole.body == b)[0])
+                              for b in self.body_indices}
 
     def build_state(self, config):
         m = len(self.hexes)
         rho0 = self.table.params[self.body, layout.RHO0]
-        self.vol0 = np.empty(m)
-        element_volumes(self.x, self.hexes, self.vol0)
         self.element_mass = rho0 * self.vol0
-        self.mass = np.empty(len(self.x))
-        lumped_masses(self.hexes, self.vol0, rho0, self.mass)
         self.v = np.zeros_like(self.x)
         temp = np.empty(m)
         centroids = self.centroids()
@@ -105,32 +113,38 @@ class FemBodies:
         self.hourglass = Hourglass(kind, coefficient, np.zeros((m, 12)), np.zeros(m))
 
     def assign_loads(self, loads, body_names):
-        """Mark the nodes each load on an FEM body acts on; returns problems for loads that
-        select no node. A traction gives each selected node a quarter of the area of every
-        free face of its body whose four nodes are all selected; a force is shared
-        equally among the selected nodes."""
-        problems = []
-        for i, load in enumerate(loads):
-            b = body_names.index(load.body)
+        """Mark the nodes each load on an FEM body acts on (on the whole mesh, so every
+        rank finds the same); returns problems for loads that select no node. A traction
+        gives each selected node a quarter of the area of every free face of its body
+        whose four nodes are all selected; a force is shared equally among the selected
+        nodes."""
+        whole, problems = self.whole, []
+        load, scale = np.full(len(whole.x), -1, np.int32), np.zeros(len(whole.x))
+        for i, item in enumerate(loads):
+            b = body_names.index(item.body)
             if b not in self.body_indices:
                 continue
-            selected = self.nodes_in(b, load.region)
-            if load.type == "traction":
-                area = free_face_areas(self.x, self.hexes[self.body == b], selected)
+            selected = whole.nodes_in(b, item.region)
+            if item.type == "traction":
+                area = free_face_areas(whole.x, whole.hexes[whole.body == b], selected)
                 selected &= area > 0
-                self.load_scale[selected] = area[selected]
+                scale[selected] = area[selected]
             elif selected.any():
-                self.load_scale[selected] = 1.0 / np.count_nonzero(selected)
+                scale[selected] = 1.0 / np.count_nonzero(selected)
             if not selected.any():
                 problems.append(f"loads[{i}].region: selects no node of FEM body "
-                                f"'{load.body}'" + (" on a free face of its mesh"
-                                                    if load.type == "traction" else ""))
-            self.load[selected] = i
+                                f"'{item.body}'" + (" on a free face of its mesh"
+                                                    if item.type == "traction" else ""))
+            load[selected] = i
+        self.load, self.load_scale = load[self.node_id], scale[self.node_id]
         return problems
 
-    def nodes_in(self, b, region):
-        lo, hi = np.asarray(region.min), np.asarray(region.max)
-        return np.all((self.x >= lo) & (self.x <= hi), axis=1) & (self.node_body == b)
+    def forget_whole_mesh(self):
+        """Keep of the whole mesh only what rank 0 writes (connectivity, body)."""
+        whole = self.whole
+        self.whole = None
+        self.output_mesh = (whole.hexes, whole.body, len(whole.x)) \
+            if self.world.is_root else None
 
     # -- records ------------------------------------------------------------------------
     def mesh(self):
@@ -142,10 +156,12 @@ class FemBodies:
 
     # -- phases -------------------------------------------------------------------------
     def stress_and_forces(self, dt):
-        """Element stresses and nodal forces; ``speed`` = h c / L_e, the largest."""
+        """Element stresses and nodal forces, summed over the ranks sharing a node, then
+        gravity and loads; ``speed`` = h c / L_e, the largest."""
         self.force[:] = 0.0
         rate, bad, why = element_forces(self.mesh(), self.state, self.materials,
                                         self.hourglass, dt, self.force)
+        self.force = sum_shared_rows(self.world, self.force, self.partners)
         external_forces(self.mass, self.gravity, self.load, self.load_scale,
                         self.load_vectors, self.force)
         self.speed = rate * self.h
@@ -158,16 +174,17 @@ class FemBodies:
     def move(self, dt):
         bad = advance_positions(self.x, self.v, dt)
         if bad >= 0 and self.fault is None:
-            self.fault = (f"node {bad} of FEM body '{self.names[self.node_body[bad]]}': "
-                          f"position is not finite")
+            self.fault = (f"node {int(self.node_id[bad])} of FEM body "
+                          f"'{self.names[self.node_body[bad]]}': position is not finite")
 
     def note_fault(self, e, what):
-        first = np.flatnonzero(self.body == self.body[e])[0]
-        self.fault = (f"element {e - first} of FEM body '{self.names[self.body[e]]}': "
-                      f"{what}")
+        b = int(self.body[e])
+        self.fault = (f"element {int(self.element_id[e]) - self.first_element[b]} of FEM "
+                      f"body '{self.names[b]}': {what}")
 
     def initial_speed(self):
-        """h c0 / L_e over the elements at the start (c0 the material's wave speed)."""
+        """h c0 / L_e over this rank's elements at the start (c0 the material's wave
+        speed)."""
         b = np.empty((8, 3))
         fastest = 0.0
         speeds = [self.table.initial_wave_speed(i) for i in range(len(self.names))]
@@ -176,37 +193,37 @@ class FemBodies:
             fastest = max(fastest, speeds[self.body[e]] * area / volume)
         return fastest * self.h
 
-    # -- observables --------------------------------------------------------------------
+    # -- observables (shared nodes counted by their lowest sharer) ----------------------
     def energies(self):
         """(kinetic, internal, hourglass) of this rank's nodes and elements."""
-        kinetic = 0.5 * float(self.mass @ np.einsum("ij,ij->i", self.v, self.v))
+        m, v = self.mass[self.owned], self.v[self.owned]
+        kinetic = 0.5 * float(m @ np.einsum("ij,ij->i", v, v))
         internal = float(self.element_mass @ self.state.e_int)
         return kinetic, internal, float(self.hourglass.energy.sum())
 
     def body_stats(self):
-        """Per FEM body name: mass, counts, centroid, velocity, bbox and energies."""
-        stats = {}
+        """Per FEM body name, over all ranks (collective): mass, counts, centroid,
+        velocity, bbox and energies."""
+        nb = len(self.names)
+        sums, box = np.zeros((nb, 12)), np.full((nb, 6), -np.inf)
         for b in self.body_indices:
-            nodes, elems = self.node_body == b, self.body == b
-            m = self.mass[nodes]
-            x, v = self.x[nodes], self.v[nodes]
-            total = float(m.sum())
-            stats[self.names[b]] = {
-                "mass": total, "n_particles": 0, "n_elements": int(elems.sum()),
-                "n_nodes": int(nodes.sum()), "centroid": (m @ x / total).tolist(),
-                "velocity": (m @ v / total).tolist(), "bbox_min": x.min(axis=0).tolist(),
-                "bbox_max": x.max(axis=0).tolist(),
-                "energy": {"kinetic": 0.5 * float(m @ np.einsum("ij,ij->i", v, v)),
-                           "internal": float(self.element_mass[elems]
-                                             @ self.state.e_int[elems]),
-                           "hourglass": float(self.hourglass.energy[elems].sum())}}
-        return stats
+            nodes, elems = (self.node_body == b) & self.owned, self.body == b
+            m, x, v = self.mass[nodes], self.x[nodes], self.v[nodes]
+            sums[b] = [m.sum(), *(m @ x), *(m @ v), elems.sum(), nodes.sum(),
+                       0.5 * m @ np.einsum("ij,ij->i", v, v),
+                       self.element_mass[elems] @ self.state.e_int[elems],
+                       self.hourglass.energy[elems].sum()]
+            if nodes.any():
+                box[b, :3], box[b, 3:] = -x.min(axis=0), x.max(axis=0)
+        sums, box = self.world.sum(sums), self.world.max(box)
+        return {self.names[b]: body_entry(sums[b], box[b]) for b in self.body_indices}
 
     def potential(self, gravity):
-        return -float(self.mass @ (self.x @ np.asarray(gravity, np.float64)))
+        m, x = self.mass[self.owned], self.x[self.owned]
+        return -float(m @ (x @ np.asarray(gravity, np.float64)))
 
     def load_power(self, load_vectors):
-        loaded = self.load >= 0
+        loaded = (self.load >= 0) & self.owned
         if not loaded.any():
             return 0.0
         forces = self.load_scale[loaded, None] * load_vectors[self.load[loaded]]
@@ -216,11 +233,67 @@ class FemBodies:
         return self.x[self.hexes].mean(axis=1)
 
     def frame(self):
-        """The columns of an element frame (pmpm.io.elements_h5)."""
+        """The columns of an element frame (pmpm.io.elements_h5) in global order, on rank
+        0 (None on the others; collective)."""
         s = self.state
-        return {"node_x": self.x, "node_v": self.v, "stress": s.stress, "eps_p": s.eps_p,
-                "density": s.rho, "e_int": s.e_int, "centroid": self.centroids(),
-                "hourglass_energy": self.hourglass.energy}
+        nodes = {"node_x": self.x[self.owned], "node_v": self.v[self.owned]}
+        elements = {"stress": s.stress, "eps_p": s.eps_p, "density": s.rho,
+                    "e_int": s.e_int, "centroid": self.centroids(),
+                    "hourglass_energy": self.hourglass.energy}
+        node_parts = self.world.gather((self.node_id[self.owned], nodes))
+        element_parts = self.world.gather((self.element_id, elements))
+        if not self.world.is_root:
+            return None
+        return {**in_global_order(node_parts), **in_global_order(element_parts)}
+
+
+class WholeMesh:
+    """Every FEM body's mesh, concatenated, with the quantities that need all of it
+    (element volumes, lumped nodal masses): built the same on every rank at set-up."""
+
+    def __init__(self, meshes, body_indices, table):
+        xs, hexes, node_body, elem_body, offset = [], [], [], [], 0
+        for b in body_indices:
+            points, cells = meshes[b]
+            xs.append(points)
+            hexes.append(cells + offset)
+            node_body.append(np.full(len(points), b, np.int32))
+            elem_body.append(np.full(len(cells), b, np.int32))
+            offset += len(points)
+        self.x = np.ascontiguousarray(np.concatenate(xs), np.float64)
+        self.hexes = np.ascontiguousarray(np.concatenate(hexes), np.int64)
+        self.node_body, self.body = np.concatenate(node_body), np.concatenate(elem_body)
+        self.vol0 = np.empty(len(self.hexes))
+        element_volumes(self.x, self.hexes, self.vol0)
+        self.mass = np.empty(len(self.x))
+        lumped_masses(self.hexes, self.vol0, table.params[self.body, layout.RHO0],
+                      self.mass)
+
+    def centroids(self):
+        return self.x[self.hexes].mean(axis=1)
+
+    def nodes_in(self, b, region):
+        lo, hi = np.asarray(region.min), np.asarray(region.max)
+        return np.all((self.x >= lo) & (self.x <= hi), axis=1) & (self.node_body == b)
+
+
+def body_entry(sums, box):
+    """One FEM body's summary entry from its summed moments and bounding box."""
+    mass = sums[0]
+    safe = mass if mass > 0 else 1.0
+    return {"mass": float(mass), "n_particles": 0, "n_elements": int(sums[7]),
+            "n_nodes": int(sums[8]), "centroid": (sums[1:4] / safe).tolist(),
+            "velocity": (sums[4:7] / safe).tolist(), "bbox_min": (-box[:3]).tolist(),
+            "bbox_max": box[3:].tolist(),
+            "energy": {"kinetic": float(sums[9]), "internal": float(sums[10]),
+                       "hourglass": float(sums[11])}}
+
+
+def in_global_order(parts):
+    """Concatenate the ranks' (global ids, {name: rows}) and order the rows by id."""
+    ids = np.concatenate([p[0] for p in parts])
+    order = np.argsort(ids, kind="stable")
+    return {name: np.concatenate([p[1][name] for p in parts])[order] for name in parts[0][1]}
 
 
 def face_constraints(x, grid):

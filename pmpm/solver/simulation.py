@@ -72,13 +72,15 @@ class Simulation:
     def lay_out(world, config, case_dir, fill_body):
         """The bodies' positions and the slab decomposition, before any kernel is
         compiled: a decomposition that cannot be made fails here, in a second."""
-        refuse_fem_on_ranks(world, config)
         grid = CoarseGrid.from_config(config.grid)
         filled = fill_positions(config, fill_body, case_dir)
         x = np.concatenate([positions for positions, _ in filled])
-        slabs = choose_slabs(grid.cell_histograms(x), world.size, config.decomposition.axis)
+        meshes = build_meshes(config, case_dir)
+        centroids = [points[hexes].mean(axis=1) for points, hexes in meshes.values()]
+        counts = grid.cell_histograms(np.concatenate([x] + centroids))  # elements count too
+        slabs = choose_slabs(counts, world.size, config.decomposition.axis)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
-        return grid, filled, slabs, mine, build_meshes(config, case_dir)
+        return grid, filled, slabs, mine, meshes
 
     @classmethod
     def from_layout(cls, world, config, layout):
@@ -88,9 +90,10 @@ class Simulation:
         particles = build_on_every_rank(world, lambda: build_particles(config, bodies, filled,
                                                                        mine))
         problems = assign_loads(config, particles, world.sum)
-        elements = FemBodies(meshes, config, bodies) if meshes else None
+        elements = FemBodies(meshes, config, bodies, world, grid, slabs) if meshes else None
         if elements:
             problems += elements.assign_loads(config.loads, bodies.names)
+            elements.forget_whole_mesh()
         if problems:
             raise SetupError(problems)
         return cls(world, config, grid, slabs, particles, bodies, elements=elements)
@@ -190,7 +193,7 @@ class Simulation:
 
     def body_stats(self):
         """Per body the run contract's values (an FEM body's from its nodes, with its
-        element and node counts and energies; FEM bodies live on one rank)."""
+        element and node counts and energies)."""
         stats = body_stats(self.world, self.particles, self.bodies.names)
         if self.elements:
             stats.update(self.elements.body_stats())
@@ -218,14 +221,6 @@ class Simulation:
             vec[i] = np.asarray(load.value, dtype=np.float64) * time_factor(
                 load.time_function, time)
         return vec
-
-
-def refuse_fem_on_ranks(world, config):
-    """FEM bodies run on one rank for now: a SetupError (exit 2) on more."""
-    fem = [i for i, b in enumerate(config.bodies) if b.method == "fem"]
-    if fem and world.size > 1:
-        raise SetupError([f"bodies[{fem[0]}].method: FEM bodies run on one rank for now; "
-                          f"run this case with 1 rank (got {world.size})"])
 
 
 def refuse_fem_restart(config):
