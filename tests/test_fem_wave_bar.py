@@ -3,7 +3,10 @@ at the element centroids against the 1D solution at 7.6, 15.6 and 41.6 us, on el
 of 1 and 0.5 mm, one element across (slip faces: 1D)."""
 import json
 import os
+from xml.etree import ElementTree
 
+import h5py
+import meshio
 import numpy as np
 import pytest
 
@@ -78,3 +81,24 @@ def test_summary_reports_the_fem_body(runs):
     with open(os.path.join(runs[1.0], "history.csv")) as f:
         header = f.readline().strip().split(",")
     assert header[-6:] == ["bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz"]
+
+
+def test_elements_xdmf_points_at_the_datasets_of_elements_h5(runs):
+    """Every HDF DataItem of elements.xdmf names a dataset of elements.h5 with its shape;
+    meshio reads the hexahedron mesh of the time series (its reader stops at the
+    HyperSlab stress columns, which ParaView reads, as in particles.xdmf)."""
+    out = runs[1.0]
+    tree = ElementTree.parse(os.path.join(out, "elements.xdmf"))
+    items = [item for item in tree.iter("DataItem") if item.get("Format") == "HDF"]
+    grids = tree.getroot().find("Domain/Grid").findall("Grid")
+    assert len(grids) == 1 + len(TIMES) and len(items) > 10 * len(grids)
+    with h5py.File(os.path.join(out, "elements.h5"), "r") as f:
+        for item in items:
+            name, path = item.text.strip().split(":")
+            assert name == "elements.h5"
+            dims = tuple(int(d) for d in item.get("Dimensions").split())
+            assert f[path].shape == dims, path
+    with meshio.xdmf.TimeSeriesReader(os.path.join(out, "elements.xdmf")) as reader:
+        points, cells = reader.read_points_cells()
+    assert points.shape == (404, 3) and cells[0].type == "hexahedron"
+    assert cells[0].data.shape == (100, 8)

@@ -1,4 +1,5 @@
-"""Frames of the FEM bodies (``DIR/elements.h5``), beside particles.h5, at the same times.
+"""Frames of the FEM bodies (``DIR/elements.h5``), beside particles.h5, at the same times,
+and ``DIR/elements.xdmf`` that ParaView opens (pmpm.io.elements_xdmf).
 
 File layout::
 
@@ -12,8 +13,11 @@ File layout::
 Rank 0 writes it: every rank sends it its owned nodes and its elements at each frame
 (a gather; the collective parallel writer is still to come).
 """
+import os
+
 import h5py
 
+from .elements_xdmf import write_elements_xdmf
 from .particles_h5 import STRESS_COMPONENTS
 
 
@@ -22,10 +26,12 @@ class ElementWriter:
     method is collective (rank 0 writes)."""
 
     def __init__(self, path, elements, body_names, is_root):
-        self.elements = elements
+        self.elements, self.path = elements, path
         self.file = h5py.File(path, "w") if is_root else None
+        self.written = []
         if self.file:
-            hexes, body, _ = elements.output_mesh
+            hexes, body, self.n_nodes = elements.output_mesh
+            self.n_elements = len(hexes)
             self.file.attrs["body_names"] = list(body_names)
             self.file.create_dataset("mesh/hexes", data=hexes)
             self.file.create_dataset("mesh/body", data=body)
@@ -44,6 +50,10 @@ class ElementWriter:
         group["stress"].attrs["components"] = STRESS_COMPONENTS
         self.file.attrs["frames"] = self.count
         self.file.flush()
+        self.written.append((group.name, float(time)))
+        write_elements_xdmf(os.path.splitext(self.path)[0] + ".xdmf",
+                            os.path.basename(self.path), self.written, self.n_nodes,
+                            self.n_elements)
 
     def close(self):
         if self.file:
