@@ -180,7 +180,7 @@ def begin_set_up(world, config, args, checkpoint, out):
     layout = _set_up(Simulation.lay_out, world, config, case_dir, fill_body)
     filled = layout[1]
     size = _set_up(check_size, world, config, sum(len(v) for _, v in filled),
-                   lambda: initial_speed(config, filled), out, 0.0, True)
+                   lambda: initial_speed(config, filled, layout[4]), out, 0.0, True)
     return lambda: (_set_up(Simulation.from_layout, world, config, layout), None, size)
 
 
