@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from ..materials.kernels import update_stress_columns
+from ..materials.tensors import fdiv
 from .hexahedron import hourglass_shapes, largest_face_area, mean_gradient
 
 #: hourglass forms (``Hourglass.kind``)
@@ -68,6 +69,7 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
     x, v, hexes, body = mesh
     stress, F, rho, eps_p, e_int, temp, q = mat
     codes, params, rigid = bodies
+    hg_kind, hg_coefficient, resist, hg_energy = hourglass     # unpacked before the loop
     xe, ve, b = np.empty((8, 3)), np.empty((8, 3)), np.empty((8, 3))
     gamma, fe, Lg = np.empty((4, 8)), np.empty((8, 3)), np.empty((3, 3))
     rate, bad, why = 0.0, -1, NO_FAULT
@@ -82,13 +84,14 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
             if bad < 0:
                 bad, why = e, NON_POSITIVE_VOLUME
             continue
-        length = volume / largest_face_area(xe)
+        inv_volume = fdiv(1.0, volume)      # no division with a raise path in the loop
+        length = volume * fdiv(1.0, largest_face_area(xe))
         for i in range(3):
             for j in range(3):
                 s = 0.0
                 for k in range(8):
                     s += ve[k, i] * b[k, j]
-                Lg[i, j] = s / volume
+                Lg[i, j] = s * inv_volume
         bb = body[e]
         c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
                                   eps_p, e_int, temp, q)
@@ -96,12 +99,11 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
             if bad < 0:
                 bad, why = e, FAILED_UPDATE
             continue
-        rate = max(rate, c / length)
-        stress_forces(stress[e], q[e], b, fe)
-        hourglass_shapes(xe, b, volume, gamma)
-        hourglass.energy[e] += hourglass_forces(e, ve, b, gamma, volume, rho[e], c, dt,
-                                               hourglass.kind[bb], hourglass.coefficient[bb],
-                                               hourglass.resist, fe)
+        rate = max(rate, c * fdiv(1.0, length))
+        stress_forces(stress, e, q[e], b, fe)
+        hourglass_shapes(xe, b, inv_volume, gamma)
+        hg_energy[e] += hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho[e], c, dt,
+                                         hg_kind[bb], hg_coefficient[bb], resist, fe)
         for k in range(8):
             n = hexes[e, k]
             for i in range(3):
@@ -110,10 +112,10 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
 
 
 @njit(cache=True, inline="always")
-def stress_forces(sig, q, b, fe):
-    """fe[I] = -(sigma - q I) b_I, sigma a Voigt row (xx yy zz xy yz zx)."""
-    sxx, syy, szz = sig[0] - q, sig[1] - q, sig[2] - q
-    sxy, syz, szx = sig[3], sig[4], sig[5]
+def stress_forces(stress, e, q, b, fe):
+    """fe[I] = -(sigma - q I) b_I, sigma the Voigt row e (xx yy zz xy yz zx)."""
+    sxx, syy, szz = stress[e, 0] - q, stress[e, 1] - q, stress[e, 2] - q
+    sxy, syz, szx = stress[e, 3], stress[e, 4], stress[e, 5]
     for k in range(8):
         bx, by, bz = b[k, 0], b[k, 1], b[k, 2]
         fe[k, 0] = -(sxx * bx + sxy * by + szx * bz)
@@ -122,16 +124,17 @@ def stress_forces(sig, q, b, fe):
 
 
 @njit(cache=True, inline="always")
-def hourglass_forces(e, ve, b, gamma, volume, rho, c, dt, kind, coefficient, resist, fe):
+def hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho, c, dt, kind, coefficient,
+                     resist, fe):
     """Subtract the hourglass forces of element ``e`` from ``fe``; returns their work
     over the step, dt sum_a Q_a . q_a."""
     if kind == STIFFNESS:
         bb = 0.0
         for k in range(8):
             bb += b[k, 0] * b[k, 0] + b[k, 1] * b[k, 1] + b[k, 2] * b[k, 2]
-        gain = dt * coefficient * rho * c * c * bb / (3.0 * volume)
+        gain = dt * coefficient * rho * c * c * bb * inv_volume / 3.0
     else:
-        gain = 0.25 * coefficient * rho * c * volume ** (2.0 / 3.0)
+        gain = 0.25 * coefficient * rho * c * np.cbrt(volume * volume)
     work = 0.0
     for a in range(4):
         for i in range(3):
@@ -176,7 +179,7 @@ def advance_velocities(v, force, mass, fixed, dt):
     """Central difference v <- v + dt f / m at the nodes; then the constraints: ``fixed``
     (n, 3) bool, True where that velocity component is held at zero."""
     for n in range(v.shape[0]):
-        inv = dt / mass[n]
+        inv = dt * fdiv(1.0, mass[n])
         for i in range(3):
             v[n, i] = 0.0 if fixed[n, i] else v[n, i] + force[n, i] * inv
 

@@ -82,9 +82,9 @@ def largest_face_area(xe):
 
 
 @njit(cache=True, inline="always")
-def hourglass_shapes(xe, b, volume, gamma):
+def hourglass_shapes(xe, b, inv_volume, gamma):
     """Fill ``gamma`` (4, 8) with the Flanagan-Belytschko hourglass shape vectors
-    gamma_a = h_a - (h_a . x_i) b_i / V: orthogonal to every linear velocity field, so
+    gamma_a = h_a - (h_a . x_i) b_i / V (``inv_volume`` = 1 / V): orthogonal to every linear velocity field, so
     they pick out the hourglass modes only."""
     for a in range(4):
         hx = hy = hz = 0.0
@@ -95,7 +95,7 @@ def hourglass_shapes(xe, b, volume, gamma):
             hz += h * xe[node, 2]
         for node in range(8):
             gamma[a, node] = HOURGLASS[a, node] - (hx * b[node, 0] + hy * b[node, 1]
-                                                   + hz * b[node, 2]) / volume
+                                                   + hz * b[node, 2]) * inv_volume
 
 
 @njit(cache=True)
