@@ -32,7 +32,7 @@ METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it i
               "of 8-node hexahedra (box or mesh geometry) advanced by explicit central "
               "differences with lumped masses, one-point integration and hourglass "
               "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
-              "held its centroid at the start. FEM bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
+              "holds its centroid. FEM bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
               "or symmetry face takes that condition) but are not yet coupled to particle "
               "bodies: they pass through them")
 

@@ -31,3 +31,10 @@ def sum_shared_rows(world, values, partners):
         else:
             total[idx] += part
     return total
+
+
+def exchange_objects(world, packages):
+    """Send ``packages[r]`` to rank r (any picklable object, to self too) and return what
+    every rank sent here, by rank: the elements that change rank, with their nodes, at
+    a balance check (rare, so pickled)."""
+    return world.raw.alltoall(packages)

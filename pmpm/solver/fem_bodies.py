@@ -12,8 +12,9 @@ In each step, from the positions x^k and the velocities v^(k-1/2):
 * ``move``: x^(k+1) = x^k + dt v^(k+1/2).
 
 No coupling to particles yet (CFEMP, ICFEMP). Over MPI an element belongs to the rank
-whose slab held its centroid at set-up and stays there (the elements are not on the
-grid, so where they live changes no answer); the forces of the nodes that several ranks
+whose slab holds its centroid; it moves there with its state and its nodes when the
+decomposition checks its balance (the elements are not on the grid yet, so where they
+live changes no answer, only the balance); the forces of the nodes that several ranks
 hold are summed over them in rank order (pmpm.comm.shared_nodes), so every copy of a
 node moves the same and 1 rank agrees with N to round-off.
 """
@@ -22,14 +23,14 @@ import numpy as np
 from ..fem.elements import (FAILED_UPDATE, HOURGLASS_KINDS, NON_POSITIVE_VOLUME,
                             ElementMesh, Hourglass, advance_positions, advance_velocities,
                             element_forces, external_forces, lumped_masses)
-from ..comm.shared_nodes import sum_shared_rows
+from ..comm.shared_nodes import exchange_objects, sum_shared_rows
 from ..fem.hexahedron import FACES, element_geometry, element_volumes
 from ..kernels.records import BodyMaterials
 from ..materials import layout
 from ..materials.state import MaterialState
 from .bodies import initial_field
 from .errors import SetupError
-from .fem_partition import element_owners, partition_mesh
+from .fem_partition import element_owners, partition_mesh, shared_with
 
 FAULTS = {NON_POSITIVE_VOLUME: "non-positive volume (inverted or collapsed element)",
           FAILED_UPDATE: "constitutive update failed (NaN, non-convergence or "
@@ -47,8 +48,8 @@ class FemBodies:
     config : pmpm.case.CaseConfig
     table : solver.bodies.BodyTable
     world : comm.World
-    grid, slabs : the coarse grid and its slabs (element ownership at set-up; elements
-        stay with their rank, as they are not on the grid)
+    grid, slabs : the coarse grid and its slabs (element ownership at set-up; then
+        :meth:`migrate` when the decomposition checks its balance)
     """
 
     label = "element"
@@ -145,6 +146,64 @@ class FemBodies:
         self.whole = None
         self.output_mesh = (whole.hexes, whole.body, len(whole.x)) \
             if self.world.is_root else None
+
+    # -- migration (seed 004 notes Sec. 4) ---------------------------------------------
+    def slab_cells(self, grid, axis):
+        """The coarse cell of each element's centroid along ``axis`` (the slabs' balance
+        counts elements with the particles)."""
+        if not len(self.hexes):
+            return np.zeros(0, np.int64)
+        cells = grid.cells_of(self.centroids())[:, axis]
+        return np.clip(cells, 0, int(grid.n_cells[axis]) - 1)
+
+    def migrate(self, grid, slabs):
+        """Send every element whose centroid has left this rank's slab to its new owner,
+        with its state and its nodes' (collective; one all-to-all, only when some
+        element moves). Returns whether any moved."""
+        owner = element_owners(self.centroids(), grid, slabs)
+        if not self.world.any(np.any(owner != self.world.rank)):
+            return False
+        elements, nodes = self.element_columns(), self.node_columns()
+        packages = []
+        for rank in range(self.world.size):
+            going = owner == rank
+            used = np.unique(self.hexes[going])
+            packages.append(({k: col[going] for k, col in elements.items()},
+                             {k: col[used] for k, col in nodes.items()}))
+        received = exchange_objects(self.world, packages)
+        elements = {k: np.concatenate([e[k] for e, _ in received]) for k in elements}
+        nodes = {k: np.concatenate([n[k] for _, n in received]) for k in nodes}
+        _, first = np.unique(nodes["node_id"], return_index=True)  # copies are equal
+        self.set_columns(elements, {k: col[first] for k, col in nodes.items()})
+        return True
+
+    def element_columns(self):
+        columns = {"element_id": self.element_id, "body": self.body, "vol0": self.vol0,
+                   "element_mass": self.element_mass, "hexes": self.node_id[self.hexes],
+                   "resist": self.hourglass.resist, "hg_energy": self.hourglass.energy}
+        columns.update(self.state._asdict())
+        return columns
+
+    def node_columns(self):
+        return {"node_id": self.node_id, "x": self.x, "v": self.v, "mass": self.mass,
+                "fixed": self.fixed, "load": self.load, "load_scale": self.load_scale,
+                "node_body": self.node_body}
+
+    def set_columns(self, elements, nodes):
+        """Take the elements and nodes this rank now holds (any order; kept sorted by
+        global id), and find again the nodes it shares."""
+        order = np.argsort(nodes["node_id"], kind="stable")
+        for name, column in nodes.items():
+            setattr(self, name, np.ascontiguousarray(column[order]))
+        order = np.argsort(elements["element_id"], kind="stable")
+        e = {k: np.ascontiguousarray(col[order]) for k, col in elements.items()}
+        self.element_id, self.body = e["element_id"], e["body"]
+        self.vol0, self.element_mass = e["vol0"], e["element_mass"]
+        self.hexes = np.searchsorted(self.node_id, e["hexes"]).astype(np.int64)
+        self.state = MaterialState(*(e[name] for name in MaterialState._fields))
+        self.hourglass = self.hourglass._replace(resist=e["resist"], energy=e["hg_energy"])
+        self.partners, self.owned = shared_with(self.world, self.node_id)
+        self.force = np.zeros_like(self.x)
 
     # -- records ------------------------------------------------------------------------
     def mesh(self):

@@ -47,3 +47,20 @@ def element_owners(centroids, grid, slabs):
     if len(centroids) == 0:
         return np.zeros(0, np.int64)
     return slabs.owner_of_cells(grid.cells_of(centroids)[:, slabs.axis]).astype(np.int64)
+
+
+def shared_with(world, node_id):
+    """(partners, owned) of a rank holding the nodes ``node_id`` (ascending global ids),
+    from every rank's ids (collective): the local indices of the nodes shared with each
+    other rank, in global id order, and which nodes no lower rank holds."""
+    every = world.allgather(node_id)
+    partners, owned = [], np.ones(len(node_id), bool)
+    for rank, ids in enumerate(every):
+        if rank == world.rank:
+            continue
+        _, mine, _ = np.intersect1d(node_id, ids, assume_unique=True, return_indices=True)
+        if len(mine):
+            partners.append((rank, mine))
+            if rank < world.rank:
+                owned[mine] = False
+    return partners, owned

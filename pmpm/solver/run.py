@@ -274,12 +274,15 @@ class Runner:
         }
 
     def element_summary(self):
-        """With FEM bodies: their element count and element-steps per second of stepping
-        (the whole step's wall time, particles included)."""
+        """With FEM bodies: their element count, element-steps per second of stepping
+        (the whole step's wall time, particles included) and each rank's elements at the
+        end."""
         if not self.sim.elements:
             return {}
         rate = self.element_steps / self.step_wall if self.step_wall > 0 else 0.0
-        return {"n_elements": self.n_elements, "element_steps_per_s": rate}
+        per_rank = self.world.allgather(self.sim.elements.n_elements)
+        return {"n_elements": self.n_elements, "element_steps_per_s": rate,
+                "elements_per_rank": [int(n) for n in per_rank]}
 
     def window_summary(self):
         """Each refined window's final box (mm), ratio and particle count."""

@@ -151,7 +151,13 @@ class Simulation:
             kind.sort_by_cell(self.grid)
 
     def rebalance(self, threshold):
-        return self.decomposition.rebalance(threshold, self.kinds)
+        """Rebalance the slabs; FEM elements whose centroid left their rank's slab
+        migrate."""
+        if not self.elements:
+            return self.decomposition.rebalance(threshold, self.kinds)
+        result = self.decomposition.rebalance(threshold, self.kinds, [self.elements])
+        self.elements.migrate(self.grid, self.slabs)
+        return result
 
     def restart_state(self):
         """What a checkpoint keeps beyond the points' columns."""
