@@ -186,3 +186,21 @@ def test_faces_point_outward():
         p = xe[face]
         normal = np.cross(p[2] - p[0], p[3] - p[1])
         assert normal @ (p.mean(axis=0) - centre) > 0
+
+
+def test_stiffness_resistance_turns_with_the_spin():
+    """A spinning element (v = W x, no hourglass rate) keeps the length of its stored
+    hourglass forces and turns them by W dt."""
+    xe = distorted(9)
+    w = np.array([[0, -2.0, 1.0], [2.0, 0, -0.5], [-1.0, 0.5, 0]])
+    mesh = ElementMesh(xe, xe @ w.T, np.arange(8, dtype=np.int64)[None, :],
+                       np.zeros(1, np.int32))
+    resist = np.arange(1.0, 13.0)[None, :].copy()
+    hg = Hourglass(np.array([STIFFNESS], np.int64), np.array([0.05]), resist, np.zeros(1))
+    dt = 1e-4
+    element_forces(mesh, one_element_state(), materials(), hg, dt, np.zeros((8, 3)))
+    before = np.arange(1.0, 13.0).reshape(4, 3)
+    after = hg.resist.reshape(4, 3)
+    assert np.abs(after - (before + dt * before @ w.T)).max() < 1e-12 * 12
+    assert np.linalg.norm(after, axis=1) == pytest.approx(np.linalg.norm(before, axis=1),
+                                                           rel=1e-7)
