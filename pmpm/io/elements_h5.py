@@ -25,18 +25,34 @@ class ElementWriter:
     """Writes element frames of a :class:`pmpm.solver.fem_bodies.FemBodies`; every
     method is collective (rank 0 writes)."""
 
-    def __init__(self, path, elements, body_names, is_root):
+    def __init__(self, path, elements, body_names, is_root, restart_frame=None):
         self.elements, self.path = elements, path
-        self.file = h5py.File(path, "w") if is_root else None
-        self.written = []
-        if self.file:
-            hexes, body, self.n_nodes = elements.output_mesh
-            self.n_elements = len(hexes)
-            self.file.attrs["body_names"] = list(body_names)
-            self.file.create_dataset("mesh/hexes", data=hexes)
-            self.file.create_dataset("mesh/body", data=body)
-            self.frames = self.file.create_group("frames")
-        self.count = 0
+        self.count, self.written, self.file = 0, [], None
+        if not is_root:
+            return
+        hexes, body, self.n_nodes = elements.output_mesh
+        self.n_elements = len(hexes)
+        if restart_frame is not None and os.path.exists(path):
+            self.continue_file(restart_frame)
+            return
+        self.file = h5py.File(path, "w")
+        self.file.attrs["body_names"] = list(body_names)
+        self.file.create_dataset("mesh/hexes", data=hexes)
+        self.file.create_dataset("mesh/body", data=body)
+        self.frames = self.file.create_group("frames")
+
+    def continue_file(self, restart_frame):
+        """After --restart: keep the frames written before the checkpoint, drop later
+        ones (the restarted run writes them again)."""
+        self.file = h5py.File(self.path, "a")
+        self.frames = self.file["frames"]
+        for name in sorted(self.frames):
+            if int(name) >= restart_frame:
+                del self.frames[name]
+            else:
+                self.written.append((self.frames[name].name,
+                                     float(self.frames[name].attrs["time"])))
+        self.count = len(self.written)
 
     def write_frame(self, time, step):
         columns = self.elements.frame()

@@ -55,13 +55,7 @@ class FemBodies:
     label = "element"
 
     def __init__(self, meshes, config, table, world, grid, slabs):
-        self.table, self.config, self.world = table, config, world
-        self.names = table.names
-        self.body_indices = sorted(meshes)
-        self.h = float(config.grid.cell)
-        self.gravity = np.asarray(config.gravity, np.float64)
-        self.load_vectors = np.zeros((1, 3))
-        self.materials = BodyMaterials(table.codes, table.params, table.rigid)
+        self.take_config(config, table, world)
         whole = WholeMesh(meshes, self.body_indices, table)
         self.whole = whole
         owner = element_owners(whole.centroids(), grid, slabs)
@@ -71,7 +65,53 @@ class FemBodies:
         self.fixed = face_constraints(self.x, config.grid)
         self.load, self.load_scale = np.full(len(self.x), -1, np.int32), np.zeros(len(self.x))
         self.force = np.zeros_like(self.x)
+
+    def take_config(self, config, table, world):
+        self.table, self.config, self.world = table, config, world
+        self.names = table.names
+        self.body_indices = [b for b, body in enumerate(config.bodies) if body.method == "fem"]
+        self.h = float(config.grid.cell)
+        self.gravity = np.asarray(config.gravity, np.float64)
+        self.load_vectors = np.zeros((1, 3))
+        self.materials = BodyMaterials(table.codes, table.params, table.rigid)
         self.speed, self.fault = 0.0, None
+
+    @classmethod
+    def from_checkpoint(cls, elements, nodes, config, table, world, grid, slabs):
+        """The FEM bodies of a checkpoint (``checkpoint_groups``: every element and every
+        node, each once), shared out to the slabs of this run's ranks."""
+        fem = cls.__new__(cls)
+        fem.take_config(config, table, world)
+        order = np.argsort(elements["element_id"], kind="stable")
+        elements = {k: col[order] for k, col in elements.items()}
+        order = np.argsort(nodes["node_id"], kind="stable")
+        nodes = {k: col[order] for k, col in nodes.items()}
+        fem.first_element = {b: int(np.flatnonzero(elements["body"] == b)[0])
+                             for b in fem.body_indices}
+        fem.output_mesh = (elements["hexes"], elements["body"], len(nodes["node_id"])) \
+            if world.is_root else None
+        centroids = nodes["x"][elements["hexes"]].mean(axis=1)   # node ids are 0 .. n-1
+        mine = element_owners(centroids, grid, slabs) == world.rank
+        used = np.unique(elements["hexes"][mine])
+        fem.hourglass = Hourglass(*fem.hourglass_forms(config), None, None)
+        fem.set_columns({k: col[mine] for k, col in elements.items()},
+                        {k: col[used] for k, col in nodes.items()})
+        return fem
+
+    def checkpoint_groups(self):
+        """This rank's elements and the nodes it counts, as row sets of a checkpoint."""
+        nodes = {k: col[self.owned] for k, col in self.node_columns().items()}
+        return {"elements": self.element_columns(), "nodes": nodes}
+
+    def hourglass_forms(self, config):
+        """Per body the hourglass kind and coefficient (0 for particle bodies)."""
+        nb = len(self.names)
+        kind, coefficient = np.zeros(nb, np.int64), np.zeros(nb)
+        for b in self.body_indices:
+            fem = config.bodies[b].fem
+            kind[b] = HOURGLASS_KINDS[fem["hourglass"]]
+            coefficient[b] = fem["hourglass_coefficient"]
+        return kind, coefficient
 
     # -- set-up -------------------------------------------------------------------------
     def take_part(self, whole, part):
@@ -105,13 +145,8 @@ class FemBodies:
                                         f"bodies[{b}].temperature")
         self.state = MaterialState(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
                                    rho0.copy(), np.zeros(m), np.zeros(m), temp, np.zeros(m))
-        nb = len(self.names)
-        kind, coefficient = np.zeros(nb, np.int64), np.zeros(nb)
-        for b in self.body_indices:
-            fem = config.bodies[b].fem
-            kind[b] = HOURGLASS_KINDS[fem["hourglass"]]
-            coefficient[b] = fem["hourglass_coefficient"]
-        self.hourglass = Hourglass(kind, coefficient, np.zeros((m, 12)), np.zeros(m))
+        self.hourglass = Hourglass(*self.hourglass_forms(config), np.zeros((m, 12)),
+                                   np.zeros(m))
 
     def assign_loads(self, loads, body_names):
         """Mark the nodes each load on an FEM body acts on (on the whole mesh, so every

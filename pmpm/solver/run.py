@@ -65,6 +65,7 @@ class Runner:
     def restore(self, scalars):
         """Continue the counters of the run a checkpoint came from (see save_checkpoint)."""
         self.particle_steps = scalars["particle_steps"]
+        self.element_steps = scalars.get("element_steps", 0)
         self.n_initial = scalars["n_initial"]
         self.step_wall = scalars.get("step_wall", 0.0)
         self.wall_before = scalars.get("wall_s", 0.0)
@@ -181,8 +182,9 @@ class Runner:
             os.path.join(self.out, "particles.h5"), self.world.raw, self.case_text,
             {"body_names": names}, restart_frame=r["frame_index"] if r else None)
         self.frame_index = self.writer.n_frames
-        self.element_writer = ElementWriter(os.path.join(self.out, "elements.h5"),
-                                            self.sim.elements, names, self.world.is_root) \
+        self.element_writer = ElementWriter(
+            os.path.join(self.out, "elements.h5"), self.sim.elements, names,
+            self.world.is_root, restart_frame=r["frame_index"] if r else None) \
             if self.sim.elements else None
         self.history = io.HistoryWriter(
             os.path.join(self.out, "history.csv"), names,
@@ -220,13 +222,14 @@ class Runner:
         sim = self.sim
         scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
+                   "element_steps": self.element_steps,
                    "frame_index": self.frame_index, "step_wall": self.step_wall,
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    "body_mass0": self.mass0.tolist(),
                    **sim.restart_state()}
         case = None if self.case is None else {"text": self.case_text, "case": self.case}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
-                           case=case)
+                           case=case, groups=sim.checkpoint_groups())
         self.last_checkpoint = sim.step_count
 
     def finish(self, dt):

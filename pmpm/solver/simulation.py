@@ -99,8 +99,9 @@ class Simulation:
         return cls(world, config, grid, slabs, particles, bodies, elements=elements)
 
     @classmethod
-    def from_checkpoint(cls, world, config, scalars, columns):
-        refuse_fem_restart(config)
+    def from_checkpoint(cls, world, config, scalars, columns, groups=None):
+        """The state of a checkpoint (``groups``: its FEM ``elements`` and ``nodes``, whole,
+        when the case has FEM bodies)."""
         grid = CoarseGrid.from_config(config.grid)
         bodies = BodyTable(config)
         particles = Particles(columns)
@@ -109,8 +110,12 @@ class Simulation:
             counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]])
         refined = scalars.get("refine")
+        elements = None
+        if any(b.method == "fem" for b in config.bodies):
+            elements = FemBodies.from_checkpoint(groups["elements"], groups["nodes"], config,
+                                                 bodies, world, grid, slabs)
         sim = cls(world, config, grid, slabs, particles, bodies,
-                  refined["id_base"] if refined else None)
+                  refined["id_base"] if refined else None, elements=elements)
         if refined:
             sim.refiner.restore(refined)
         sim.decomposition.send_to_owners(sim.kinds)
@@ -166,6 +171,10 @@ class Simulation:
                 "lost_count": self.decomposition.lost_count.tolist(),
                 "lost_mass": self.decomposition.lost_mass.tolist(),
                 "refine": self.refiner.state()}
+
+    def checkpoint_groups(self):
+        """The row sets a checkpoint keeps beside the particles (FEM bodies), or None."""
+        return self.elements.checkpoint_groups() if self.elements else None
 
     def window_counts(self):
         """Points on each grid level, over all ranks (0: the coarse grid)."""
@@ -227,14 +236,6 @@ class Simulation:
             vec[i] = np.asarray(load.value, dtype=np.float64) * time_factor(
                 load.time_function, time)
         return vec
-
-
-def refuse_fem_restart(config):
-    """A SetupError: checkpoints do not hold FEM bodies yet."""
-    fem = [i for i, b in enumerate(config.bodies) if b.method == "fem"]
-    if fem:
-        raise SetupError([f"bodies[{fem[0]}].method: a run with FEM bodies cannot "
-                          f"--restart yet (checkpoints hold the particles only)"])
 
 
 def build_on_every_rank(world, build):
