@@ -204,3 +204,32 @@ def test_stiffness_resistance_turns_with_the_spin():
     assert np.abs(after - (before + dt * before @ w.T)).max() < 1e-12 * 12
     assert np.linalg.norm(after, axis=1) == pytest.approx(np.linalg.norm(before, axis=1),
                                                            rel=1e-7)
+
+
+def largest_frequency(coefficient):
+    """omega_max h / c of one free unit cube with lumped masses, its stiffness (elastic,
+    nu = 0.25, stiffness hourglass form) from the kernel by finite differences: one step
+    of dt = 1 from rest with velocities u is the force of the displacement u."""
+    def force(u):
+        hg = Hourglass(np.array([STIFFNESS], np.int64), np.array([coefficient]),
+                       np.zeros((1, 12)), np.zeros(1))
+        f = np.zeros((8, 3))
+        mesh = ElementMesh(unit_cube(), u.reshape(8, 3).copy(),
+                           np.arange(8, dtype=np.int64)[None, :], np.zeros(1, np.int32))
+        element_forces(mesh, one_element_state(), materials(), hg, 1.0, f)
+        return f.ravel()
+    eps = 1e-9
+    stiffness = np.array([-force(eps * unit) / eps for unit in np.eye(24)]).T
+    omega2 = np.linalg.eigvalsh(0.5 * (stiffness + stiffness.T)) / (RHO / 8)
+    c = np.sqrt((E / 1.5 + 4 * E / 7.5) / RHO)
+    return np.sqrt(omega2.max()) / c
+
+
+def test_stiffness_hourglass_control_keeps_the_stable_step_up_to_k_01():
+    """The hourglass modes stay below the element's fastest physical mode (with nu =
+    0.25 that is 2.58 c / h on one free cube: the step L_e / c is stable there for cfl
+    below 0.77)."""
+    physical = largest_frequency(0.0)
+    assert physical == pytest.approx(2.582, abs=1e-3)
+    assert largest_frequency(0.1) == pytest.approx(physical, rel=1e-6)
+    assert largest_frequency(0.3) > 1.1 * physical     # a stiffer control would reduce it

@@ -17,10 +17,10 @@ Per element and step, from the nodal positions ``x`` and the half-step velocitie
    ``Q_a += dt k rho c^2 (sum_I |b_I|^2) / (3 V) q_a`` (k the case's coefficient); the
    energy the hourglass forces take is added to the element's hourglass energy
    (viscous: dissipated; stiffness: stored, as a trapezoid; its Q_a turn with the
-   element's spin, :func:`rotate_resistance`). The stiffness is scaled so
-   that on a cube, up to k = 0.1, the hourglass modes stay slower than the element's
-   fastest physical mode: the stable step L_e / c is not reduced (without the 3,
-   k = 0.05 was unstable at cfl 0.95).
+   element's spin, :func:`rotate_resistance`). The stiffness is scaled so that on a
+   cube the largest eigenfrequency stays the physical 2 c / h up to k = 0.1 (2.19 at
+   0.15): the stable step L_e / c is not reduced (without the 3, k = 0.05 gave 2.19 and
+   the wave bar went unstable at cfl 0.95).
 
 Nothing here reads configuration or calls MPI; the arrays come in whole records.
 """
