@@ -62,12 +62,12 @@ def test_hourglass_coefficient_defaults_follow_the_form(tmp_path):
     geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
     case = load_case(write_case(tmp_path, case_tree(geometry)))
     assert case["bodies"][0]["fem"] == {"element_size": 1.0, "hourglass": "stiffness",
-                                        "hourglass_coefficient": 0.05}
+                                        "hourglass_coefficient": 0.05, "constraints": []}
     tree = case_tree(geometry)
     tree["bodies"][0]["fem"] = {"hourglass": "viscous"}
     case = load_case(write_case(tmp_path, tree, "viscous.yaml"))
     assert case["bodies"][0]["fem"] == {"element_size": 1.0, "hourglass": "viscous",
-                                        "hourglass_coefficient": 0.1}
+                                        "hourglass_coefficient": 0.1, "constraints": []}
 
 
 def test_a_mesh_body_falls_freely_under_gravity(tmp_path):
@@ -141,6 +141,65 @@ def test_bad_fem_bodies_are_refused_with_one_line(tmp_path, geometry, key, words
         load_case(write_case(tmp_path, tree))
     [line] = error.value.problems
     assert line.startswith(key + ":") and words in line, line
+
+
+def write_inp_with_base_set(path):
+    """The 2 x 2 x 2 block as an Abaqus file with the node set BASE (its z = 0 nodes)."""
+    points, hexes = box_mesh([0, 0, 0], [2, 2, 2], [2, 2, 2])
+    base = np.flatnonzero(points[:, 2] == 0)
+    meshio.write(str(path), meshio.Mesh(points, [("hexahedron", hexes)],
+                                        point_sets={"BASE": base}))
+    return points, base
+
+
+@pytest.mark.parametrize("choose", ["node_set", "region"])
+def test_constrained_nodes_hold_while_the_rest_falls(tmp_path, choose):
+    """A block clamped at its base by a node set of its Abaqus file, or by a box, under
+    gravity: the base nodes do not move; the top settles by about the static
+    rho g H^2 / 2E (a dynamic load: up to twice that), not the free fall's g t^2 / 2,
+    150 times more."""
+    points, base = write_inp_with_base_set(tmp_path / "block.inp")
+    constraint = {"node_set": "BASE"} if choose == "node_set" else \
+        {"region": {"min": [-1, -1, -0.1], "max": [3, 3, 0.1]}}
+    tree = case_tree({"type": "mesh", "file": "block.inp"}, time={"end": 0.005})
+    tree["bodies"][0]["fem"]["constraints"] = [{**constraint, "fix": ["x", "y", "z"]}]
+    out = tmp_path / "out"
+    done = pmpm([write_case(tmp_path, tree), "--out", out, "--quiet"])
+    assert done.returncode == 0, done.stderr
+    with h5py.File(out / "elements.h5") as f:
+        last = f["frames"][sorted(f["frames"])[-1]]
+        x = last["node_x"][:]
+    assert (x[base] == points[base]).all()
+    static = 7.8e-3 * abs(G) * 2.0 ** 2 / (2 * 2e5)
+    sag = 2.0 - x[points[:, 2] == 2, 2]
+    assert (sag > 0.2 * static).all() and (sag < 2.5 * static).all(), sag / static
+
+
+@pytest.mark.parametrize("constraint, key, words", [
+    ({"node_set": "TOP", "fix": ["z"]}, "bodies[0].fem.constraints[0].node_set",
+     "unknown node set 'TOP'; known: BASE"),
+    ({"fix": ["z"]}, "bodies[0].fem.constraints[0]",
+     "give exactly one of 'region' and 'node_set'"),
+    ({"node_set": "BASE", "fix": ["w"]}, "bodies[0].fem.constraints[0].fix[0]", "w"),
+])
+def test_bad_constraints_are_refused(tmp_path, constraint, key, words):
+    write_inp_with_base_set(tmp_path / "block.inp")
+    tree = case_tree({"type": "mesh", "file": "block.inp"})
+    tree["bodies"][0]["fem"]["constraints"] = [constraint]
+    with pytest.raises(CaseError) as error:
+        load_case(write_case(tmp_path, tree))
+    [line] = error.value.problems
+    assert line.startswith(key + ":") and words in line, line
+
+
+def test_a_constraint_region_without_nodes_stops_at_set_up(tmp_path):
+    tree = case_tree({"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]})
+    tree["bodies"][0]["fem"]["constraints"] = [
+        {"region": {"min": [5, 5, 5], "max": [6, 6, 6]}, "fix": ["x"]}]
+    done = pmpm([write_case(tmp_path, tree), "--out", tmp_path / "out"])
+    assert done.returncode == 2
+    assert pmpm_lines(done.stderr) == ["pmpm: error: bodies[0].fem.constraints[0]: selects "
+                                       "no node of body 'block'"]
 
 
 def test_grid_contact_with_an_fem_body_is_refused(tmp_path):

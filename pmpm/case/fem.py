@@ -2,17 +2,30 @@
 the rest of the case: the geometries an FEM mesh is made from, a readable and
 well-oriented mesh, no grid contact or window that would need coupling to particles
 (seed 004's CFEMP and ICFEMP are not built yet)."""
+import os
+
 import numpy as np
 
-from .errors import join
-from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, number,
-                     valid)
-from .hexmesh import InvertedElementError, box_counts, hex_mesh
+from .errors import join, unknown_name
+from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, list_of,
+                     mapping, number, text, valid, vector)
+from .hexmesh import InvertedElementError, box_counts, hex_mesh, read_node_sets
 from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
 HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
 FEM_GEOMETRIES = ("box", "mesh")
+AXIS_NAMES = ("x", "y", "z")
+CONSTRAINT = {
+    "region": Field(mapping({"min": Field(vector(), unit="mm", doc="lower corner"),
+                             "max": Field(vector(), unit="mm", doc="upper corner")}),
+                    OMIT, "mm", "the body's nodes inside this box at t = 0 (give region or "
+                                "node_set)"),
+    "node_set": Field(text(), OMIT, doc="a node set of the body's mesh file (Abaqus *NSET, "
+                                        "meshio point_sets; give region or node_set)"),
+    "fix": Field(list_of(choice(AXIS_NAMES, "axis"), 1, "axis"),
+                 doc="the velocity components held at zero, e.g. [x, y, z] (clamped) or [z]"),
+}
 FEM = {
     "element_size": Field(number(greater(0)), OMIT, "mm",
                           "edge of the elements a box is cut into: round(edge / "
@@ -27,6 +40,10 @@ FEM = {
                                    "stiffness, 0.1 for viscous): viscous Q = k rho c "
                                    "V^(2/3)/4 q, stiffness dQ/dt = k rho c^2 (sum of b.b)/(3V) q, "
                                    "with q the hourglass velocity rates"),
+    "constraints": Field(list_of(mapping(CONSTRAINT), 0, "constraint"), [],
+                         doc="velocity components held at zero on nodes chosen by a box "
+                             "or a node set (besides the grid faces' conditions, which "
+                             "nodes on a face take)"),
 }
 METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it is a mesh "
               "of 8-node hexahedra (box or mesh geometry) advanced by explicit central "
@@ -49,6 +66,7 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
         if valid(body, "name"):
             fem_names.add(body["name"])
         complete_fem(body["fem"], case["grid"])
+        check_constraints(body, path, problems)
         check_fem_material(body, case["materials"], path, problems)
         if valid(body, "geometry"):
             check_fem_geometry(body, case_dir, check_geometry, path, problems)
@@ -92,12 +110,47 @@ def check_fem_geometry(body, case_dir, check_geometry, path, problems):
     key = join(join(path, "geometry"), "file" if geometry["type"] == "mesh" else "type")
     try:
         hex_mesh(geometry, body["fem"]["element_size"], case_dir)
+        check_node_sets(body, case_dir, path, problems)
     except MeshReadError as error:
         line = f"{key}: cannot read {geometry['file']!r}: {error}"
         if line not in problems.lines:       # the particle fill's check may have said it
             problems.add(key, line[len(key) + 2:])
     except InvertedElementError as error:
         problems.add(key, str(error))
+
+
+def check_constraints(body, path, problems):
+    """Each constraint names exactly one of region and node_set; node sets need a mesh."""
+    constraints = body["fem"].get("constraints") if valid(body, "fem") else None
+    if not isinstance(constraints, list):
+        return
+    for j, item in enumerate(constraints):
+        if not isinstance(item, dict):
+            continue
+        where = join(join(join(path, "fem"), "constraints"), j)
+        if ("region" in item) == ("node_set" in item):
+            problems.add(where, "give exactly one of 'region' and 'node_set'")
+        elif "node_set" in item and valid(body, "geometry") and \
+                body["geometry"]["type"] != "mesh":
+            problems.add(join(where, "node_set"), "node sets come with a mesh file; this "
+                         "body is a " + body["geometry"]["type"])
+        elif valid(item, "region"):
+            low, high = item["region"]["min"], item["region"]["max"]
+            if any(a > b for a, b in zip(low, high)):
+                problems.add(join(where, "region"), "min must not exceed max")
+
+
+def check_node_sets(body, case_dir, path, problems):
+    """Every node_set a constraint names is in the body's mesh file."""
+    names = [(j, c["node_set"]) for j, c in enumerate(body["fem"].get("constraints", []))
+             if isinstance(c, dict) and isinstance(c.get("node_set"), str)]
+    if not names or body["geometry"]["type"] != "mesh":
+        return
+    sets = read_node_sets(os.path.join(case_dir, body["geometry"]["file"]))
+    for j, name in names:
+        if name not in sets:
+            problems.add(join(join(join(join(path, "fem"), "constraints"), j), "node_set"),
+                         unknown_name("node set", name, sets))
 
 
 def too_many_elements(body, path, problems):

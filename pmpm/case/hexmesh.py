@@ -94,3 +94,17 @@ def hex_mesh(geometry, element_size, case_dir="."):
         points = origin + (points - origin) @ matrix.T
     check_orientation(points, hexes)
     return points, hexes
+
+
+def read_node_sets(path):
+    """{name: node indices} of the node sets (meshio ``point_sets``: Abaqus *NSET, ...) of
+    a mesh file, numbered as :func:`read_hexes` numbers its points."""
+    mesh = _read_mesh(path)
+    blocks = [np.asarray(b.data)[:, :8] for b in mesh.cells if b.type.startswith("hexahedron")]
+    used = np.unique(np.concatenate(blocks)) if blocks else np.zeros(0, np.int64)
+    sets = {}
+    for name, indices in (mesh.point_sets or {}).items():
+        indices = np.asarray(indices, np.int64).ravel()
+        kept = indices[np.isin(indices, used)]
+        sets[str(name)] = np.searchsorted(used, kept)
+    return sets

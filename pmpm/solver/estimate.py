@@ -62,7 +62,8 @@ def initial_speed(config, filled, meshes=None):
     built); and of the FEM bodies' ``meshes``, cell c0 / L_e (L_e estimated as
     V / largest face area with the volume of the element's centre Jacobian)."""
     table = BodyTable(config)
-    elements = max([element_speed(table.initial_wave_speed(b), *mesh) * config.grid.cell
+    elements = max([element_speed(table.initial_wave_speed(b), mesh.points, mesh.hexes)
+                    * config.grid.cell
                     for b, mesh in (meshes or {}).items()] + [0.0])
     fastest = 0.0
     for b, (positions, _) in enumerate(filled):

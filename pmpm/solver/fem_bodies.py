@@ -18,12 +18,15 @@ live changes no answer, only the balance); the forces of the nodes that several 
 hold are summed over them in rank order (pmpm.comm.shared_nodes), so every copy of a
 node moves the same and 1 rank agrees with N to round-off.
 """
+import os
+from collections import namedtuple
+
 import numpy as np
 
+from ..comm.shared_nodes import exchange_objects, sum_shared_rows
 from ..fem.elements import (FAILED_UPDATE, HOURGLASS_KINDS, NON_POSITIVE_VOLUME,
                             ElementMesh, Hourglass, advance_positions, advance_velocities,
                             element_forces, external_forces, lumped_masses)
-from ..comm.shared_nodes import exchange_objects, sum_shared_rows
 from ..fem.hexahedron import FACES, element_geometry, element_volumes
 from ..kernels.records import BodyMaterials
 from ..materials import layout
@@ -62,7 +65,7 @@ class FemBodies:
         part = partition_mesh(whole.hexes, len(whole.x), owner, world.rank, world.size)
         self.take_part(whole, part)
         self.build_state(config)
-        self.fixed = face_constraints(self.x, config.grid)
+        self.fixed = face_constraints(self.x, config.grid) | whole.fixed[self.node_id]
         self.load, self.load_scale = np.full(len(self.x), -1, np.int32), np.zeros(len(self.x))
         self.force = np.zeros_like(self.x)
 
@@ -346,10 +349,11 @@ class WholeMesh:
     (element volumes, lumped nodal masses): built the same on every rank at set-up."""
 
     def __init__(self, meshes, body_indices, table):
-        xs, hexes, node_body, elem_body, offset = [], [], [], [], 0
+        xs, hexes, node_body, elem_body, fixed, offset = [], [], [], [], [], 0
         for b in body_indices:
-            points, cells = meshes[b]
+            points, cells, held = meshes[b]
             xs.append(points)
+            fixed.append(held)
             hexes.append(cells + offset)
             node_body.append(np.full(len(points), b, np.int32))
             elem_body.append(np.full(len(cells), b, np.int32))
@@ -357,6 +361,7 @@ class WholeMesh:
         self.x = np.ascontiguousarray(np.concatenate(xs), np.float64)
         self.hexes = np.ascontiguousarray(np.concatenate(hexes), np.int64)
         self.node_body, self.body = np.concatenate(node_body), np.concatenate(elem_body)
+        self.fixed = np.concatenate(fixed)
         self.vol0 = np.empty(len(self.hexes))
         element_volumes(self.x, self.hexes, self.vol0)
         self.mass = np.empty(len(self.x))
@@ -423,9 +428,14 @@ def free_face_areas(x, hexes, selected):
     return out
 
 
+#: One FEM body's mesh: ``points`` (n, 3), ``hexes`` (m, 8) and ``fixed`` (n, 3) bool,
+#: the velocity components its ``fem.constraints`` hold at zero.
+FemMesh = namedtuple("FemMesh", "points hexes fixed")
+
+
 def build_meshes(config, case_dir):
-    """{body index: (points, hexes)} of the case's FEM bodies; SetupError naming the key
-    of a mesh that cannot be built (the case check has normally caught it already)."""
+    """{body index: FemMesh} of the case's FEM bodies; SetupError naming the key of a mesh
+    that cannot be built or a constraint that selects no node."""
     from ..case.hexmesh import InvertedElementError, hex_mesh
     from ..case.mesh import MeshReadError
     meshes = {}
@@ -433,7 +443,30 @@ def build_meshes(config, case_dir):
         if body.method != "fem":
             continue
         try:
-            meshes[b] = hex_mesh(body.geometry, body.fem["element_size"], case_dir)
+            points, hexes = hex_mesh(body.geometry, body.fem["element_size"], case_dir)
+            fixed = constrained(points, body, case_dir, f"bodies[{b}].fem.constraints")
         except (MeshReadError, InvertedElementError) as error:
             raise SetupError([f"bodies[{b}].geometry: {error}"]) from None
+        meshes[b] = FemMesh(points, hexes, fixed)
     return meshes
+
+
+def constrained(points, body, case_dir, key):
+    """(n, 3) bool: the components each of ``body``'s constraints holds at zero."""
+    from ..case.hexmesh import read_node_sets
+    fixed = np.zeros(points.shape, bool)
+    items = body.fem.get("constraints") or ()
+    sets = read_node_sets(os.path.join(case_dir, body.geometry["file"])) \
+        if any("node_set" in c for c in items) else {}
+    for j, item in enumerate(items):
+        if "node_set" in item:
+            chosen = np.zeros(len(points), bool)
+            chosen[sets[item["node_set"]]] = True
+        else:
+            lo, hi = np.asarray(item["region"]["min"]), np.asarray(item["region"]["max"])
+            chosen = np.all((points >= lo) & (points <= hi), axis=1)
+        if not chosen.any():
+            raise SetupError([f"{key}[{j}]: selects no node of body '{body.name}'"])
+        for axis in item["fix"]:
+            fixed[chosen, "xyz".index(axis)] = True
+    return fixed

@@ -76,7 +76,7 @@ class Simulation:
         filled = fill_positions(config, fill_body, case_dir)
         x = np.concatenate([positions for positions, _ in filled])
         meshes = build_meshes(config, case_dir)
-        centroids = [points[hexes].mean(axis=1) for points, hexes in meshes.values()]
+        centroids = [m.points[m.hexes].mean(axis=1) for m in meshes.values()]
         counts = grid.cell_histograms(np.concatenate([x] + centroids))  # elements count too
         slabs = choose_slabs(counts, world.size, config.decomposition.axis)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
