@@ -23,7 +23,9 @@ class InvertedElementError(ValueError):
 def box_counts(lo, hi, element_size):
     """Elements per direction of a box: round(edge / element_size), at least 1."""
     edges = np.asarray(hi, float) - np.asarray(lo, float)
-    return np.maximum(np.rint(np.minimum(edges / element_size, 2.0 ** 62)), 1).astype(np.int64)
+    with np.errstate(over="ignore"):                  # a huge count is refused by the caller
+        counts = np.minimum(edges / element_size, 2.0 ** 62)
+    return np.maximum(np.rint(counts), 1).astype(np.int64)
 
 
 def box_mesh(lo, hi, counts):
