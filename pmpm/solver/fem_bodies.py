@@ -47,7 +47,7 @@ class FemBodies:
 
     Parameters
     ----------
-    meshes : dict body index -> (points (n, 3), hexes (m, 8)), the whole meshes
+    meshes : dict body index -> FemMesh (points, hexes, fixed), the whole meshes
     config : pmpm.case.CaseConfig
     table : solver.bodies.BodyTable
     world : comm.World
