@@ -119,6 +119,28 @@ def test_a_free_ringing_block_keeps_its_momentum_and_energy(tmp_path, hourglass)
     assert summary["energy"]["hourglass"] >= 0
 
 
+def test_a_rigid_fem_body_keeps_its_velocity(tmp_path):
+    """Material `rigid`: no stress, no force, gravity and the fixed face it starts on
+    ignored: the block moves with its initial velocity, exactly."""
+    geometry = {"type": "box", "min": [0, 0, -10], "max": [2, 2, -8]}
+    tree = case_tree(geometry, time={"end": 0.05})
+    tree["grid"]["boundary"] = {"z-": "fixed"}
+    tree["materials"]["stone"] = {"model": "rigid", "density": 2.5e-3}
+    tree["bodies"][0].update(material="stone", velocity=[10, 0, 5])
+    out = tmp_path / "out"
+    done = pmpm([write_case(tmp_path, tree), "--out", out, "--quiet"])
+    assert done.returncode == 0, done.stderr
+    header, rows = read_history(out)
+    v = rows[:, [header.index(f"block.v{a}") for a in "xyz"]]
+    assert np.abs(v - [10, 0, 5]).max() < 1e-12
+    x = rows[:, header.index("block.x")]
+    assert x == pytest.approx(1.0 + 10 * rows[:, header.index("time")], abs=1e-12)
+    with open(out / "summary.json") as f:
+        summary = json.load(f)
+    assert summary["bodies"]["block"]["energy"]["internal"] == 0.0
+    assert summary["bodies"]["block"]["mass"] == pytest.approx(8 * 2.5e-3, rel=1e-12)
+
+
 @pytest.mark.parametrize("geometry, key, words", [
     ({"type": "sphere", "center": [0, 0, 0], "radius": 2}, "bodies[0].geometry.type",
      "an FEM body is made from a box or a mesh"),

@@ -49,7 +49,8 @@ METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it i
               "of 8-node hexahedra (box or mesh geometry) advanced by explicit central "
               "differences with lumped masses, one-point integration and hourglass "
               "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
-              "holds its centroid. FEM bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
+              "holds its centroid; with a `rigid` material it moves with its velocity. FEM "
+              "bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
               "or symmetry face takes that condition) but are not yet coupled to particle "
               "bodies: they pass through them")
 
@@ -67,7 +68,6 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
             fem_names.add(body["name"])
         complete_fem(body["fem"], case["grid"])
         check_constraints(body, path, problems)
-        check_fem_material(body, case["materials"], path, problems)
         if valid(body, "geometry"):
             check_fem_geometry(body, case_dir, check_geometry, path, problems)
     if fem_names:
@@ -79,15 +79,6 @@ def complete_fem(fem, grid):
         fem.setdefault("hourglass_coefficient", HOURGLASS_DEFAULTS[fem["hourglass"]])
     if "element_size" not in fem and valid(grid, "cell"):
         fem["element_size"] = grid["cell"]
-
-
-def check_fem_material(body, materials, path, problems):
-    if not (valid(body, "material") and isinstance(materials, dict)):
-        return
-    material = materials.get(body["material"])
-    if isinstance(material, dict) and material.get("model") == "rigid":
-        problems.add(join(path, "material"), "a rigid FEM body is not supported yet; use "
-                     "method: particles for a rigid body")
 
 
 #: The most elements a box body may be cut into (each takes about 1 kB with its nodes).

@@ -76,6 +76,9 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
     gamma, fe, Lg = np.empty((4, 8)), np.empty((8, 3)), np.empty((3, 3))
     rate, bad, why = 0.0, -1, NO_FAULT
     for e in range(hexes.shape[0]):
+        bb = body[e]
+        if rigid[bb]:              # moves with its prescribed velocity: no stress, no force
+            continue
         for k in range(8):
             n = hexes[e, k]
             for i in range(3):
@@ -94,7 +97,6 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
                 for k in range(8):
                     s += ve[k, i] * b[k, j]
                 Lg[i, j] = s * inv_volume
-        bb = body[e]
         c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
                                   eps_p, e_int, temp, q)
         if not c >= 0.0:

@@ -66,6 +66,7 @@ class FemBodies:
         self.take_part(whole, part)
         self.build_state(config)
         self.fixed = face_constraints(self.x, config.grid) | whole.fixed[self.node_id]
+        self.fixed[self.rigid_nodes()] = False     # a rigid body keeps its velocity
         self.load, self.load_scale = np.full(len(self.x), -1, np.int32), np.zeros(len(self.x))
         self.force = np.zeros_like(self.x)
 
@@ -261,9 +262,16 @@ class FemBodies:
         self.force = sum_shared_rows(self.world, self.force, self.partners)
         external_forces(self.mass, self.gravity, self.load, self.load_scale,
                         self.load_vectors, self.force)
+        if self.materials.rigid.any():
+            self.force[self.rigid_nodes()] = 0.0
         self.speed = rate * self.h
         if bad >= 0 and self.fault is None:
             self.note_fault(bad, FAULTS[why])
+
+    def rigid_nodes(self):
+        """The nodes of rigid FEM bodies (material ``rigid``): they move with their
+        initial velocity, as rigid particle bodies do."""
+        return self.materials.rigid[self.node_body]
 
     def integrate(self, dt):
         advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
