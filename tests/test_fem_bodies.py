@@ -317,13 +317,15 @@ def test_elements_migrate_with_their_slab_and_two_ranks_match_one(tmp_path):
     assert np.abs(one["stress"] - two["stress"]).max() < 1e-10 * np.abs(one["stress"]).max()
 
 
-def test_particles_and_elements_in_one_run_on_one_and_two_ranks(tmp_path):
+@pytest.mark.parametrize("shape", ["linear", "gimp"])
+def test_particles_and_elements_in_one_run_on_one_and_two_ranks(tmp_path, shape):
     """A particle rod on the fixed face x- and an FEM bar clear of it (not coupled),
     slip faces around, gravity along -x: every column of history.csv is the same on 1
     and 2 ranks; the FEM bar falls freely."""
     tree = case_tree({"type": "box", "min": [12, 0, 0], "max": [20, 2, 2]},
                      gravity=[-9.81, 0, 0], time={"end": 0.004})
     tree["grid"] = {"min": [0, 0, 0], "max": [20, 2, 2], "cell": 1.0,
+                    "shape_functions": shape,
                     "boundary": {"x-": "fixed", "y-": "slip", "y+": "slip", "z-": "slip",
                                  "z+": "slip"}}
     tree["bodies"].append({"name": "rod", "material": "steel",
