@@ -6,11 +6,12 @@ apart whole, and when they separate. Writes results/rings/rings.{json,md,png}.
 The rings are plane strain (a slab one cell thick between slip faces), 4,392 particles
 each; a run of 5 ms takes seconds.
 
-The runs use the case's update order, MUSL; `--scheme usf` runs update-stress-first,
-which is unstable here (see runs/rings.yaml).
+The runs use the case's update order, MUSL, and its linear hats; `--scheme usf` runs
+update-stress-first, the paper's order, which is unstable with the hats (see
+runs/rings.yaml) and stable with `--shape gimp` or `bspline` (results/rings_usf_gimp/).
 
 Usage: .venv/bin/python scripts/rings.py [--ranks 1] [--methods 1 2] [--cfl 0.1 0.25 0.5 0.8]
-       [--scheme musl|usf]
+       [--scheme musl|usf] [--shape linear|gimp|bspline]
 """
 import argparse
 import json
@@ -34,12 +35,15 @@ def main():
     parser.add_argument("--methods", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cfl", type=float, nargs="+", default=[0.1, 0.25, 0.5, 0.8])
     parser.add_argument("--scheme", choices=("musl", "usf"), default="musl")
+    parser.add_argument("--shape", choices=("linear", "gimp", "bspline"), default="linear",
+                        help="grid.shape_functions (the case's own: linear, as the paper)")
     parser.add_argument("--out", default=None, help="default: results/rings (MUSL) or "
                         "results/rings_usf")
     parser.add_argument("--plot-only", action="store_true", help="re-plot saved results")
     args = parser.parse_args()
     args.out = args.out or os.path.join(ROOT, "results", "rings" + (
-        "" if args.scheme == "musl" else f"_{args.scheme}"))
+        "" if args.scheme == "musl" else f"_{args.scheme}") + (
+        "" if args.shape == "linear" else f"_{args.shape}"))
     if args.plot_only:
         with open(os.path.join(args.out, "rings.json"), encoding="utf-8") as f:
             return plot(os.path.join(args.out, "rings.png"), json.load(f), args.out)
@@ -58,7 +62,8 @@ def measure(method, cfl, args):
     try:
         summary = run_case(CASE, out, args.ranks,
                            [f"params.method={method}", f"params.cfl={cfl}",
-                            f"time.scheme={args.scheme}"])
+                            f"time.scheme={args.scheme}",
+                            f"grid.shape_functions={args.shape}"])
     except subprocess.CalledProcessError:           # a fault: keep the history up to it
         hist = read_history(out)
         return {"method": method, "cfl": cfl, "failed_at": float(hist["time"][-1]),

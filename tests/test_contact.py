@@ -21,9 +21,9 @@ NO_CHECK = np.full((2, 2), np.inf)              # no separation check (seed 001 
 
 
 def node_block(shape, lo, strides, n_cells, bc):
-    faces = np.zeros(int(np.prod(shape)), np.uint8)
+    faces = np.zeros(int(np.prod(shape)), np.uint16)
     fill_face_codes(shape, lo, strides, n_cells, bc, faces)
-    return NodeBlock(shape, lo, strides, n_cells, bc, faces)
+    return NodeBlock(shape, lo, strides, n_cells, bc, faces, np.zeros(6))
 
 
 def contact_start(cnodal, slots, gvel, master, separation, rigid, method, m_tiny, shape, lo,

@@ -91,9 +91,9 @@ def test_fixed_and_slip_faces_constrain_nodal_velocity():
     bc = np.array([FIXED, 0, 0, SLIP, 0, 0], np.int64)      # x- fixed, y+ slip
     gvel = np.zeros((b.n_nodes, 3))
     n_cells = np.full(3, 2, np.int64)
-    faces = np.zeros(b.n_nodes, np.uint8)
+    faces = np.zeros(b.n_nodes, np.uint16)
     fill_face_codes(b.shape, b.lo, b.strides, n_cells, bc, faces)
-    mpm.nodal_velocities(nodal, NodeBlock(b.shape, b.lo, b.strides, n_cells, bc, faces), 0.0,
+    mpm.nodal_velocities(nodal, NodeBlock(b.shape, b.lo, b.strides, n_cells, bc, faces, np.zeros(6)), 0.0,
                          gvel)
     planes = gvel.reshape(3, 3, 3, 3)
     assert np.all(planes[0] == 0.0)                            # x = 0 fixed

@@ -61,15 +61,14 @@ def test_symmetric_impact_matches_rankine_hugoniot(tmp_path, scheme, cfl):
     assert abs(balance["growth"]) < ENERGY and balance["largest_growth"] < ENERGY
 
 
-#: target at rest, USF cfl 0.5, measured (flyer / target): gimp Us -0.6/+1.3 %, P +0.4/
-#: +0.4 %, rho 0.0/0.0 %, up +0.6/+0.3 %, energy +1.2 %; bspline Us 0.0/+0.1 %, P -3.7/
+#: target at rest, USF cfl 0.5, measured (flyer / target): bspline Us 0.0/+0.1 %, P -3.7/
 #: -3.3 %, rho -0.3/-0.3 %, up -3.6/-3.4 % (the wider B-spline smears the plateau),
 #: energy +1.1 %; linear hats: energy +18 %, target P +17 %, Us +8 %
 AT_REST = {**TOLERANCE, "up": 0.04}
 
 
 @pytest.mark.parametrize("shape", [
-    "gimp", "bspline",
+    "bspline",
     pytest.param("linear", marks=pytest.mark.xfail(
         strict=True, reason="issue 14: shocked copper moving across cells gains energy "
                             "under USF with linear shape functions (+18 % in 0.25 us here, "
@@ -87,3 +86,41 @@ def test_impact_on_a_target_at_rest_matches_rankine_hugoniot(tmp_path, shape):
         errors = measured["errors"][body]
         for key in MEASURES:
             assert abs(errors[key]) < AT_REST[key], (body, key, errors)
+
+
+#: (rho0 g/mm^3, c0 m/s, s, gamma0): copper, and 6061 aluminium (Steinberg's table)
+MATERIALS = {"copper": (8.93e-3, 3940.0, 1.49, 2.0), "aluminium": (2.703e-3, 5240.0, 1.4, 1.97)}
+#: issue 14: shock speed, pressure, density and particle velocity within 3 %, total
+#: energy within 2 %. Measured at the defaults (gimp, USF, cfl 0.5; flyer / target): the
+#: largest error is Us -2.6 % (copper, 100 m/s, the weak shock's front is smeared over
+#: the most cells); energy +1.5 % at most (aluminium, 1000 m/s)
+AT_DEFAULTS, ENERGY_AT_DEFAULTS = 0.03, 0.02
+
+
+def defaults():
+    """``--set`` items that spell out the schema's defaults of ``time.scheme``,
+    ``time.cfl`` and ``grid.shape_functions``: the case file names its own, the test
+    must run pmpm's."""
+    from pmpm.case.schema import GRID, TIME
+    return [f"time.scheme={TIME['scheme'].default}", f"time.cfl={TIME['cfl'].default}",
+            f"grid.shape_functions={GRID['shape_functions'].default}"]
+
+
+@pytest.mark.parametrize("material", sorted(MATERIALS))
+@pytest.mark.parametrize("speed", [100.0, 500.0, 1000.0])
+def test_impacts_at_the_defaults_match_rankine_hugoniot(tmp_path, material, speed):
+    """A flyer on a target at rest at 100, 500 and 1000 m/s in two materials, at pmpm's
+    default update order, shape functions and cfl: every jump quantity within 3 % on
+    both sides and the total energy within 2 % (8 frames for the front's speed)."""
+    rho0, c0, s, gamma0 = MATERIALS[material]
+    out = tmp_path / "out"
+    run_pmpm(CASE, out, sets=[f"params.v_flyer={speed}", f"params.v_rel={speed}",
+                              f"params.rho0={rho0}", f"params.c0={c0}", f"params.s={s}",
+                              f"params.gamma0={gamma0}", "output.frames=8", *defaults()])
+    measured = planar_shock_errors(str(out), speed, 0.0, rho0, c0, s)
+    balance = read_summary(str(out))["energy_balance"]
+    assert abs(balance["growth"]) < ENERGY_AT_DEFAULTS
+    assert balance["largest_growth"] < ENERGY_AT_DEFAULTS
+    for body in ("flyer", "target"):
+        errors = measured["errors"][body]
+        assert all(abs(errors[key]) < AT_DEFAULTS for key in MEASURES), (body, errors)

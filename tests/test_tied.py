@@ -81,7 +81,7 @@ def test_particles_inside_a_window_get_its_spacing():
 def node_block(block):
     """The NodeBlock record of a LocalBlock (no box faces: the ties do not read them)."""
     return NodeBlock(block.shape, block.lo, block.strides, np.full(3, 10 ** 6),
-                     np.zeros(6, np.int64), np.zeros(block.n_nodes, np.uint8))
+                     np.zeros(6, np.int64), np.zeros(block.n_nodes, np.uint16), np.zeros(6))
 
 
 def test_ties_interpolate_on_the_coarse_faces_and_carry_mass_to_the_masters():

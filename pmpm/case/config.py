@@ -148,12 +148,14 @@ class WindowConfig:
 @dataclass(frozen=True)
 class GridConfig:
     """The background grid (``grid:``). ``boundary`` maps each face of ``FACES`` (x-, x+,
-    y-, y+, z-, z+) to its condition name: fixed, slip, free or symmetry."""
+    y-, y+, z-, z+) to its condition name: fixed, slip, free or symmetry; ``friction`` each
+    face to its Coulomb coefficient (0: none; only slip faces have one)."""
     min: tuple
     max: tuple
     cell: float
     shape_functions: str
     boundary: ReadOnlyDict
+    friction: ReadOnlyDict
     windows: tuple
     lost_mass_fraction: float
 

@@ -25,6 +25,9 @@ BOUNDARY = {face: Field(choice(BOUNDARY_CONDITIONS, "boundary condition"), "free
                         doc=f"the face at grid.{'min' if face[1] == '-' else 'max'} "
                             f"along {face[0]}")
             for face in FACES}
+FRICTION = {face: Field(number(at_least(0)), 0.0, "1",
+                        f"Coulomb coefficient on face {face} (a slip face only)")
+            for face in FACES}
 TIME = {
     "end": Field(number(greater(0)), unit="ms", doc="simulated end time"),
     "cfl": Field(number(greater(0), at_most(1)), 0.5, "1",
@@ -155,7 +158,22 @@ def _check_grid(grid, path, problems):
             return grid
         grid["max"] = rounded_max(grid["min"], grid["max"], grid["cell"])
         check_windows(grid, path, problems)
+    _check_friction_faces(grid, path, problems)
     return grid
+
+
+def _check_friction_faces(grid, path, problems):
+    """Friction only on slip faces (a fixed face already stops the material, a free one
+    does not touch it, a symmetry plane has none)."""
+    friction, boundary = grid.get("friction"), grid.get("boundary")
+    if not isinstance(friction, dict) or not isinstance(boundary, dict):
+        return
+    for face, mu in friction.items():
+        condition = boundary.get(face)
+        if isinstance(mu, (int, float)) and mu > 0 and condition != "slip":
+            problems.add(join(join(path, "friction"), face),
+                         f"friction {mu:g} on a {condition} face; only a slip face takes "
+                         f"friction (set grid.boundary.{face}: slip)")
 
 
 def rounded_max(low, high, cell):
@@ -172,15 +190,25 @@ GRID = {
                      "whole number of cells (the rounded value is stored)"),
     "cell": Field(number(greater(0)), unit="mm", doc="cell size h (cubic cells)"),
     "shape_functions": Field(
-        choice(("linear", "gimp", "bspline"), "shape function"), "linear",
-        doc="`linear`: trilinear hats on 8 nodes (seed 000 Eq. 5); `gimp`: uniform GIMP, "
-            "the hat smoothed over the particle's width (cell / particles_per_cell), 27 "
-            "nodes; `bspline`: quadratic B-splines, 27 nodes. The 27-node shapes have "
-            "continuous gradients: particles crossing cells then keep the energy (USF, "
-            "cfl 0.5: vibrating bar +0.4 % against +69 %), at 2-4 times the cost per "
-            "particle; docs/validation/vibrating_bar.md"),
+        choice(("linear", "gimp", "bspline"), "shape function"), "gimp",
+        doc="`gimp` (default): uniform GIMP, the hat smoothed over the particle's width "
+            "(cell / particles_per_cell), 27 nodes; `bspline`: quadratic B-splines, 27 "
+            "nodes; `linear`: trilinear hats on 8 nodes (seed 000 Eq. 5; the seed cases "
+            "in runs/ use them, as the papers did). The 27-node shapes have continuous "
+            "gradients, so particles crossing cells keep the energy (USF, cfl 0.5: "
+            "vibrating bar +0.4 % against +69 % with hats; a shock in copper +1.2 % "
+            "against +18 %), at about 2.5 times the hats' cost per particle. gimp is the "
+            "default because it also holds the bar's period across tied windows and the "
+            "shock's plateau to 2 %, where bspline is 0.9 % and 3.7 % off; "
+            "docs/validation/vibrating_bar.md"),
     "boundary": Field(mapping(BOUNDARY), defaults_of(BOUNDARY),
                       doc="the condition on each face of the grid box"),
+    "friction": Field(mapping(FRICTION), defaults_of(FRICTION),
+                      doc="Coulomb friction on slip faces, e.g. `{z-: 0.3}`: such a face is "
+                          "a wall the material may leave; where it presses on it, its "
+                          "tangential velocity changes by at most mu times the normal "
+                          "change, so a block slides decelerating at mu g or sticks "
+                          "(docs/validation/wall_friction.md)"),
     "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],
                      doc="refined sub-grids tied to the coarse grid (seed 000 Secs. 3-4)"),
     "lost_mass_fraction": Field(number(at_least(0), at_most(1)), 0.0, "1",

@@ -14,14 +14,17 @@ FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
 
 class CoarseGrid:
     """Global coarse grid: ``origin`` (3,), cell edge ``h``, ``n_cells`` (3,) and a
-    boundary code per box face in the order x-, x+, y-, y+, z-, z+."""
+    boundary code per box face in the order x-, x+, y-, y+, z-, z+, and the faces' Coulomb
+    ``friction`` coefficients in the same order (from a mapping face -> mu; 0 if absent)."""
 
-    def __init__(self, origin, h, n_cells, boundary):
+    def __init__(self, origin, h, n_cells, boundary, friction=None):
         self.origin = np.asarray(origin, dtype=np.float64)
         self.h = float(h)
         self.n_cells = np.asarray(n_cells, dtype=np.int64)
         self.boundary = np.array([BOUNDARY_CODES[boundary.get(f, "free")] for f in FACES],
                                  dtype=np.int64)
+        friction = friction or {}
+        self.friction = np.array([float(friction.get(f, 0.0)) for f in FACES])
 
     @classmethod
     def from_config(cls, grid):
@@ -29,7 +32,7 @@ class CoarseGrid:
         origin = np.asarray(grid.min, dtype=np.float64)
         extent = np.asarray(grid.max, dtype=np.float64) - origin
         n_cells = np.rint(extent / grid.cell).astype(np.int64)
-        return cls(origin, grid.cell, n_cells, grid.boundary)
+        return cls(origin, grid.cell, n_cells, grid.boundary, grid.friction)
 
     @property
     def upper(self):

@@ -75,6 +75,7 @@ class Level:
         self.origin = grid.origin
         self.n_cells = grid.n_cells * self.ratio
         self.boundary = grid.boundary
+        self.friction = grid.friction
 
     @property
     def is_window(self):

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from ..materials.kernels import update_stress_columns
-from .boundary import constrain_coded
+from .boundary import constrain_acceleration, constrain_velocity
 from .shape import MAX_NODES, stencil
 
 NODAL_COMPONENTS = 8
@@ -55,8 +55,8 @@ def particles_to_grid(pts, rigid, geo, nodal, want):
 @njit(cache=True)
 def nodal_velocities(nodal, block, m_tiny, gvel):
     """Velocity at the start of the step: momentum / mass, rigid bodies imposing theirs,
-    then fixed and slip faces (``block.faces``)."""
-    faces = block.faces
+    then fixed and slip faces (``block.faces``; walls only against motion into them)."""
+    faces, friction = block.faces, block.friction
     vec = np.empty(3)
     for n in range(gvel.shape[0]):
         vec[:] = 0.0
@@ -67,22 +67,24 @@ def nodal_velocities(nodal, block, m_tiny, gvel):
             for d in range(3):
                 vec[d] = nodal[n, 1 + d] / nodal[n, 0]
         if faces[n]:
-            constrain_coded(vec, faces[n])
+            constrain_velocity(vec, faces[n], friction)
         gvel[n, 0], gvel[n, 1], gvel[n, 2] = vec[0], vec[1], vec[2]
 
 
 @njit(cache=True)
 def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
     """Leap-frog on the nodes (Eq. 14): a = f/m, v_new = v + a dt; rigid nodes keep the
-    rigid velocity; fixed and slip faces constrain the acceleration."""
-    faces = block.faces
-    acc = np.zeros(3)
+    rigid velocity; fixed and slip faces constrain the acceleration, walls (slip faces
+    with friction) with Coulomb's law."""
+    faces, friction = block.faces, block.friction
+    acc, vel = np.zeros(3), np.empty(3)
     for n in range(gnew.shape[0]):
         if nodal[n, 4] <= 0.0 and nodal[n, 0] > m_tiny:
             for d in range(3):
                 acc[d] = force[n, d] / nodal[n, 0]
             if faces[n]:
-                constrain_coded(acc, faces[n])
+                vel[0], vel[1], vel[2] = gvel[n, 0], gvel[n, 1], gvel[n, 2]
+                constrain_acceleration(acc, vel, faces[n], friction, dt)
         else:
             acc[0] = acc[1] = acc[2] = 0.0
         for d in range(3):

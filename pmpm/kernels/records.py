@@ -20,9 +20,10 @@ from ..materials.state import MaterialState
 GridGeometry = namedtuple("GridGeometry", "origin inv_h lo strides shape half_width")
 
 #: A local node block as a node kernel sees it: ``shape``, ``lo``, ``strides`` (3,) of
-#: the block, the level's ``n_cells`` (3,), the box-face ``boundary`` codes (6,) and
-#: ``faces`` (n_nodes,) uint8, each node's packed face codes (``pmpm.kernels.boundary``).
-NodeBlock = namedtuple("NodeBlock", "shape lo strides n_cells boundary faces")
+#: the block, the level's ``n_cells`` (3,), the box-face ``boundary`` codes (6,),
+#: ``faces`` (n_nodes,) uint16, each node's packed face codes (``pmpm.kernels.boundary``),
+#: and the box faces' Coulomb ``friction`` coefficients (6,) (0 where none).
+NodeBlock = namedtuple("NodeBlock", "shape lo strides n_cells boundary faces friction")
 
 #: The kinematics of material points: ``x``, ``v`` (n, 3), ``mass`` (n,), ``body``
 #: (n,) int32, and ``level`` (n,) int32, the grid level each point maps to.

@@ -26,7 +26,8 @@ def warm_up(shape_code=LINEAR):
     n_cells = np.full(3, 2, np.int64)
     geo = GridGeometry(np.zeros(3), 1.0, lo, strides, MARKERS[shape_code],
                        np.full(1, 0.25))
-    block = NodeBlock(shape, lo, strides, n_cells, np.zeros(6, np.int64), np.zeros(N, np.uint8))
+    block = NodeBlock(shape, lo, strides, n_cells, np.zeros(6, np.int64), np.zeros(N, np.uint16),
+                      np.zeros(6))
     pts = PointState(np.full((1, 3), 0.5), np.zeros((1, 3)), np.ones(1),
                      np.zeros(1, np.int32), np.zeros(1, np.int32))
     rigid = np.zeros(1, np.bool_)

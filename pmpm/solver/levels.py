@@ -23,7 +23,7 @@ class LevelState:
         self.work = Workspace()
         self.ties = None
         self.block = None
-        self.faces = np.zeros(0, np.uint8)
+        self.faces = np.zeros(0, np.uint16)
 
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
@@ -31,10 +31,11 @@ class LevelState:
         self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides,
                                      MARKERS[self.shape], self.half_width)
         if len(self.faces) < b.n_nodes:
-            self.faces = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.uint8)
+            self.faces = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.uint16)
         faces = self.faces[:b.n_nodes]
         fill_face_codes(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, faces)
-        self.nodes = NodeBlock(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, faces)
+        self.nodes = NodeBlock(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, faces,
+                               lv.friction)
 
 
 class Hierarchy:
