@@ -224,6 +224,16 @@ def test_a_constraint_region_without_nodes_stops_at_set_up(tmp_path):
                                        "no node of body 'block'"]
 
 
+def test_an_fem_body_on_a_face_with_friction_stops_at_set_up(tmp_path):
+    tree = case_tree({"type": "box", "min": [0, 0, -10], "max": [2, 2, -8]})
+    tree["grid"].update(boundary={"z-": "slip"}, friction={"z-": 0.3})
+    done = pmpm([write_case(tmp_path, tree), "--out", tmp_path / "out"])
+    assert done.returncode == 2
+    [line] = pmpm_lines(done.stderr)
+    assert line.startswith("pmpm: error: grid.friction.z-: nodes of an FEM body lie on "
+                           "this face"), line
+
+
 def test_grid_contact_with_an_fem_body_is_refused(tmp_path):
     geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
     tree = case_tree(geometry)

@@ -456,7 +456,23 @@ def build_meshes(config, case_dir):
         except (MeshReadError, InvertedElementError) as error:
             raise SetupError([f"bodies[{b}].geometry: {error}"]) from None
         meshes[b] = FemMesh(points, hexes, fixed)
+    refuse_friction_faces(meshes, config.grid)
     return meshes
+
+
+def refuse_friction_faces(meshes, grid):
+    """SetupError naming ``grid.friction.FACE`` when FEM nodes lie on a slip face with
+    friction: they would take it as frictionless slip (the wall rule of pmpm.kernels.
+    boundary is not applied to FE nodes yet)."""
+    friction = getattr(grid, "friction", None) or {}
+    for d in range(3):
+        for face, plane in ((f"{'xyz'[d]}-", grid.min[d]), (f"{'xyz'[d]}+", grid.max[d])):
+            if friction.get(face, 0.0) > 0 and any(
+                    (np.abs(m.points[:, d] - plane) <= 1e-9 * grid.cell).any()
+                    for m in meshes.values()):
+                raise SetupError([f"grid.friction.{face}: nodes of an FEM body lie on this "
+                                  f"face; FE nodes take no friction yet (only frictionless "
+                                  f"slip): set it to 0 or keep FEM bodies off the face"])
 
 
 def constrained(points, body, case_dir, key):
