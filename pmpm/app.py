@@ -165,20 +165,21 @@ def begin_set_up(world, config, args, checkpoint, out):
     from .solver.simulation import Simulation
     from .solver.estimate import check_size, initial_speed
     if args.restart:
-        scalars, columns = read_checkpoint(world, checkpoint)
+        scalars, columns, groups = read_checkpoint(world, checkpoint, config)
         end = float(config.time.end)
         if scalars["time"] > end * (1 + 1e-12):
             raise InputError([f"time.end: {end:g} is before the checkpoint's time "
                               f"{scalars['time']:g}; --set a later time.end to continue"])
         size = _set_up(check_size, world, config, world.sum(len(columns["x"])),
                        lambda: scalars["fastest"], out, scalars["time"], False)
-        return lambda: (_set_up(Simulation.from_checkpoint, world, config, scalars, columns),
+        return lambda: (_set_up(Simulation.from_checkpoint, world, config, scalars, columns,
+                                groups),
                         scalars, size)
     case_dir = os.path.dirname(os.path.abspath(args.case))
     layout = _set_up(Simulation.lay_out, world, config, case_dir, fill_body)
     filled = layout[1]
     size = _set_up(check_size, world, config, sum(len(v) for _, v in filled),
-                   lambda: initial_speed(config, filled), out, 0.0, True)
+                   lambda: initial_speed(config, filled, layout[4]), out, 0.0, True)
     return lambda: (_set_up(Simulation.from_layout, world, config, layout), None, size)
 
 
@@ -190,13 +191,21 @@ def _set_up(build, *args):
         raise InputError(err.problems) from None
 
 
-def read_checkpoint(world, path):
-    """Scalars and this rank's share of the checkpoint at ``path`` (collective)."""
-    from .io import load_checkpoint
+def read_checkpoint(world, path, config):
+    """Scalars, this rank's share of the particles of the checkpoint at ``path`` and,
+    when the case has FEM bodies, its elements and nodes whole (collective)."""
+    from .io import load_checkpoint, load_group
     try:
-        return load_checkpoint(path, world.raw)
+        scalars, columns = load_checkpoint(path, world.raw)
+        groups = {}
+        if any(body.method == "fem" for body in config.bodies):
+            groups = {name: load_group(path, name) for name in ("elements", "nodes")}
     except (OSError, KeyError, ValueError) as err:
         raise InputError([f"--restart: cannot read checkpoint '{path}': {err}"]) from None
+    if any(group is None for group in groups.values()):
+        raise InputError([f"--restart: checkpoint '{path}' holds no FEM bodies, which the "
+                          f"case has"])
+    return scalars, columns, groups
 
 
 def _stem(path):

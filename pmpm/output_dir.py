@@ -9,7 +9,8 @@ refuse, so that it never deletes what pmpm did not write.
 import os
 import re
 
-OUTPUT_FILES = ("particles.h5", "particles.xdmf", "history.csv", "summary.json")
+OUTPUT_FILES = ("particles.h5", "particles.xdmf", "history.csv", "summary.json",
+                "elements.h5", "elements.xdmf")
 _CHECKPOINT = re.compile(r"^checkpoint_\d+\.h5(\.tmp)?$")
 _TEMPORARY = re.compile(
     r"^(" + "|".join(re.escape(name) for name in OUTPUT_FILES) + r")\.tmp\.\d+$")

@@ -8,8 +8,10 @@ import re
 import numpy as np
 
 from .errors import join
+from .fem import FEM, METHOD_DOC, METHODS
 from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, FieldNumber,
-                     FieldVector, Tagged, at_least, choice, greater, has_invalid, integer,
+                     FieldVector, Tagged, at_least, choice, defaults_of, greater,
+                     has_invalid, integer,
                      valid, mapping, number, text, vector)
 from .fill import fill_geometry
 from .mesh import MeshReadError
@@ -113,6 +115,9 @@ BODY = mapping({
     "temperature": Field(FieldNumber(), OMIT, "K",
                          "initial temperature, a number or an expression of x, y, z "
                          "(default: the material's T_room, the Johnson-Cook reference)"),
+    "method": Field(choice(METHODS, "body method"), "particles", doc=METHOD_DOC),
+    "fem": Field(mapping(FEM), defaults_of(FEM),
+                 doc="the elements of a `method: fem` body (ignored for particles)"),
 })
 
 

@@ -248,6 +248,8 @@ class BodyConfig:
     particles_per_cell: int
     velocity: tuple
     temperature: float | str | None
+    method: str
+    fem: ReadOnlyDict
 
 
 @mirrors(TOP_LEVEL, case="the whole validated case, read-only (``thawed(config.case)`` is "

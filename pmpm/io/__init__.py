@@ -26,6 +26,7 @@ _EXPORTS = {
     "save_checkpoint": "checkpoint",
     "latest_checkpoint": "checkpoint",
     "load_checkpoint": "checkpoint",
+    "load_group": "checkpoint",
     "read_checkpoint_case": "checkpoint",
 }
 __all__ = sorted(_EXPORTS)

@@ -6,6 +6,8 @@ File layout of ``DIR/checkpoint_NNNNNN.h5`` (NNNNNN = step, at least six digits)
     /columns/    one dataset per particle column, rows of all ranks, in creation order
     /case        scalar UTF-8 string (optional): JSON of the case the run was started
                  with (``text``, its validated form ``case``), for ``--restart`` to compare
+    /NAME/       (optional) more row sets, as /columns/: the FEM bodies' ``elements`` and
+                 ``nodes`` (pmpm.solver.fem_bodies)
 
 Notes
 -----
@@ -68,7 +70,7 @@ def _publish(tmp, final, keep):
         os.remove(path)
 
 
-def save_checkpoint(directory, comm, scalars, columns, keep=2, case=None):
+def save_checkpoint(directory, comm, scalars, columns, keep=2, case=None, groups=None):
     """Write a checkpoint of every rank's particles collectively, atomically, and rotate.
 
     Parameters
@@ -91,6 +93,9 @@ def save_checkpoint(directory, comm, scalars, columns, keep=2, case=None):
     case : dict, optional
         JSON-able record of the case (rank 0's is stored as the ``/case`` dataset; see
         :func:`read_checkpoint_case`).
+    groups : dict of str to dict of numpy.ndarray, optional
+        More row sets, each written collectively like ``columns`` under ``/NAME/`` (the
+        FEM bodies' elements and nodes); :func:`load_group` reads one back whole.
 
     Returns
     -------
@@ -109,6 +114,11 @@ def save_checkpoint(directory, comm, scalars, columns, keep=2, case=None):
         f.attrs.update({"scalars": text, "n_total": layout.total, "ranks": comm.size})
         datasets = C.create_columns(f.create_group("columns", track_order=True), layout)
         C.write_columns(datasets, layout, comm.rank, columns)
+        for name, rows in (groups or {}).items():
+            group_layout = C.agree_layout(comm, rows)
+            group = f.create_group(name, track_order=True)
+            C.write_columns(C.create_columns(group, group_layout), group_layout, comm.rank,
+                            rows)
         if case_raw is not None:
             dset = f.create_dataset("case", shape=(), dtype=h5py.string_dtype(
                 "utf-8", max(len(case_raw), 1)))
@@ -150,8 +160,20 @@ def load_checkpoint(path, comm):
         start = total * comm.rank // comm.size
         count = total * (comm.rank + 1) // comm.size - start
         dxpl = C.collective_xfer()
-        columns = {name: C.read_rows(dset, start, count, dxpl) for name, dset in f["columns"].items()}
+        columns = {name: C.read_rows(dset, start, count, dxpl) if total else
+                   np.empty(dset.shape, dset.dtype)        # no storage to read from
+                   for name, dset in f["columns"].items()}
     return scalars, columns
+
+
+def load_group(path, name):
+    """Every row of the row set ``name`` saved with ``groups=`` (a dict of arrays), or
+    None when the checkpoint has none. Not collective: each rank reads it whole."""
+    with h5py.File(os.fspath(path), "r") as f:
+        if name not in f:
+            return None
+        return {key: dset[()] if dset.shape[0] else np.empty(dset.shape, dset.dtype)
+                for key, dset in f[name].items()}
 
 
 def read_checkpoint_case(path):

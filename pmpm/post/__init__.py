@@ -1,4 +1,5 @@
 """Reading results back and the measures the validation cases compare (serial)."""
+from .elements import element_profiles
 from .frames import axial_profiles, read_frame, frame_times, read_summary
 from .measures import (convex_hull_area, foot_diameter, taylor_length_and_diameter,
                        taylor_shape, wave_bar_stress, rms_error)
@@ -8,7 +9,7 @@ from .contact import (body_history, body_index, body_points, connected_pieces, c
                       residual_velocity, rolling_sphere_slips, rolling_sphere_travel, travel,
                       until_separation)
 
-__all__ = ["axial_profiles", "read_frame", "frame_times", "read_summary",
+__all__ = ["axial_profiles", "element_profiles", "read_frame", "frame_times", "read_summary",
            "convex_hull_area", "foot_diameter", "taylor_length_and_diameter", "taylor_shape",
            "wave_bar_stress", "rms_error",
            "planar_shock_errors", "rankine_hugoniot", "shocked_state",

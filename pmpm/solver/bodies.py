@@ -34,9 +34,11 @@ class BodyTable:
 def fill_positions(config, fill_body, case_dir):
     """Positions and volumes of every body's particles (the same on every rank), as a
     list of (positions, volumes) per body. Only these few bytes per particle are held for
-    all particles; the full columns are built for a rank's own particles only."""
+    all particles; the full columns are built for a rank's own particles only. An FEM
+    body has no particles (its mesh: solver.fem_bodies.build_meshes)."""
     case = config.case
-    return [fill_body(body, case["grid"], case_dir) for body in case["bodies"]]
+    return [fill_body(body, case["grid"], case_dir) if body.get("method") != "fem"
+            else (np.zeros((0, 3)), np.zeros(0)) for body in case["bodies"]]
 
 
 def build_particles(config, table, filled, keep):
@@ -98,6 +100,8 @@ def assign_loads(config, particles, count_global):
     problems = []
     names = [b.name for b in config.bodies]
     for i, load in enumerate(config.loads):
+        if config.bodies[names.index(load.body)].method == "fem":
+            continue                    # its nodes: solver.fem_bodies.FemBodies
         selected = _in_region(particles, names.index(load.body), load.region)
         n_global = count_global(int(selected.sum()))
         if n_global == 0:

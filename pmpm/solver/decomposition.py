@@ -90,10 +90,11 @@ class Decomposition:
             owners = self.slabs.owner_of_cells(cells).astype(np.int64)
             migrate_store(self.world, owners, kind.particles)
 
-    def rebalance(self, threshold, kinds):
-        """Move slab planes when max/mean point count - 1 exceeds ``threshold``.
-        Returns the imbalance before any move, and whether the slabs moved."""
-        counts = self.slab_axis_histogram(kinds)
+    def rebalance(self, threshold, kinds, counted=()):
+        """Move slab planes when max/mean point count - 1 exceeds ``threshold`` (the
+        ``counted`` kinds, FEM elements, count too but move themselves). Returns the
+        imbalance before any move, and whether the slabs moved."""
+        counts = self.slab_axis_histogram(list(kinds) + list(counted))
         imbalance = self.slabs.imbalance(counts)
         if self.world.size == 1 or imbalance <= threshold:
             return imbalance, False

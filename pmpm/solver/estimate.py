@@ -55,12 +55,16 @@ def _size(n):
     return f"{n:.0f} B"
 
 
-def initial_speed(config, filled):
+def initial_speed(config, filled, meshes=None):
     """Fastest initial wave plus particle speed over the bodies, times the finest
     window's ratio: the coarse-grid speed of the same Courant number (as
     Simulation.initial_speed, but from the filled positions, before any particle is
-    built)."""
+    built); and of the FEM bodies' ``meshes``, cell c0 / L_e (L_e estimated as
+    V / largest face area with the volume of the element's centre Jacobian)."""
     table = BodyTable(config)
+    elements = max([element_speed(table.initial_wave_speed(b), mesh.points, mesh.hexes)
+                    * config.grid.cell
+                    for b, mesh in (meshes or {}).items()] + [0.0])
     fastest = 0.0
     for b, (positions, _) in enumerate(filled):
         if len(positions) == 0:
@@ -70,7 +74,20 @@ def initial_speed(config, filled):
             v[:, d] = initial_field(component, positions, f"bodies[{b}].velocity[{d}]")
         fastest = max(fastest, table.initial_wave_speed(b) + float(
             np.sqrt((v * v).sum(axis=1)).max()))
-    return fastest * max([w.ratio for w in config.grid.windows] + [1])
+    return max(fastest * max([w.ratio for w in config.grid.windows] + [1]), elements)
+
+
+def element_speed(c0, points, hexes):
+    """The largest c0 / L_e over the elements of a mesh (numpy, an estimate)."""
+    from ..case.hexmesh import centre_jacobians
+    from ..fem.hexahedron import FACES
+    if len(hexes) == 0:
+        return 0.0
+    volume = 8.0 * centre_jacobians(points, hexes)
+    corners = points[hexes[:, FACES]]               # (m, 6, 4, 3)
+    normal = np.cross(corners[:, :, 2] - corners[:, :, 0], corners[:, :, 3] - corners[:, :, 1])
+    area = 0.5 * np.linalg.norm(normal, axis=2).max(axis=1)
+    return float(c0 * (area / volume).max())
 
 
 def estimate(config, n_particles, fastest, t0=0.0, first_frame=True):

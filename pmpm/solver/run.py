@@ -5,11 +5,11 @@ import time as clock
 import numpy as np
 
 from .. import io
+from ..io.elements_h5 import ElementWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
-from .energy import EnergyWatch, gravitational_potential, load_power
+from .energy import EnergyWatch
 from .memory import memory_summary
-from .observe import body_stats, energies
 from .progress import Progress
 
 SORT_EVERY = 20
@@ -46,12 +46,14 @@ class Runner:
         self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root)
         self.local_load_work = 0.0
         self.particle_steps = 0
+        self.element_steps = 0
         self.step_wall = 0.0
         self.frame_index = 0
         self.n_initial = self.world.sum(sim.particles.n)
         self.allowance = float(self.config.grid.lost_mass_fraction)
+        self.n_elements = sim.n_elements
         names = sim.bodies.names
-        stats = body_stats(self.world, sim.particles, names)
+        stats = sim.body_stats()
         self.mass0 = np.array([stats[name]["mass"] for name in names]) + sim.decomposition.lost_mass
         self.lost_seen = sim.lost
         self.wall_before = 0.0
@@ -63,6 +65,7 @@ class Runner:
     def restore(self, scalars):
         """Continue the counters of the run a checkpoint came from (see save_checkpoint)."""
         self.particle_steps = scalars["particle_steps"]
+        self.element_steps = scalars.get("element_steps", 0)
         self.n_initial = scalars["n_initial"]
         self.step_wall = scalars.get("step_wall", 0.0)
         self.wall_before = scalars.get("wall_s", 0.0)
@@ -111,7 +114,7 @@ class Runner:
         sim = self.sim
         n = self.world.sum(sim.particles.n)
         vectors = sim.load_vectors(sim.time + 0.5 * dt)
-        power = load_power(sim.particles, vectors) if self.config.loads else 0.0
+        power = sim.load_power(vectors) if self.config.loads else 0.0
         tick = clock.perf_counter()
         try:
             sim.advance(dt)
@@ -122,8 +125,9 @@ class Runner:
             self.check_lost(dt)
         self.step_wall += clock.perf_counter() - tick
         self.particle_steps += n
+        self.element_steps += self.n_elements
         if self.config.loads:          # the loads' work over the step (trapezoidal)
-            self.local_load_work += 0.5 * dt * (power + load_power(sim.particles, vectors))
+            self.local_load_work += 0.5 * dt * (power + sim.load_power(vectors))
 
     def after_step(self, dt):
         sim, step = self.sim, self.sim.step_count
@@ -178,6 +182,10 @@ class Runner:
             os.path.join(self.out, "particles.h5"), self.world.raw, self.case_text,
             {"body_names": names}, restart_frame=r["frame_index"] if r else None)
         self.frame_index = self.writer.n_frames
+        self.element_writer = ElementWriter(
+            os.path.join(self.out, "elements.h5"), self.sim.elements, names,
+            self.world.is_root, restart_frame=r["frame_index"] if r else None) \
+            if self.sim.elements else None
         self.history = io.HistoryWriter(
             os.path.join(self.out, "history.csv"), names,
             restart_step=r["step"] if r else None) if self.world.is_root else None
@@ -187,19 +195,20 @@ class Runner:
         self.writer.write_frame(self.sim.time, self.sim.step_count, {
             "x": p.x, "v": p.v, "stress": p.stress, "eps_p": p.eps_p, "density": p.rho,
             "mass": p.mass, "body": p.body, "id": p.id, "temp": p.temp, "e_int": p.e_int})
+        if self.element_writer:
+            self.element_writer.write_frame(self.sim.time, self.sim.step_count)
         self.frame_index += 1
 
     def write_history_row(self, dt):
-        e = energies(self.world, self.sim.particles)
+        e = self.sim.energies()
         if not all(np.isfinite(value) for value in e.values()):
             raise SolverError(
                 f"step {self.sim.step_count} (t = {self.sim.time:.6g}): the energies are "
                 f"not finite (kinetic {e['kinetic']:.3g}, internal {e['internal']:.3g}): "
                 f"a material value, load or velocity overflows double precision")
-        self.watch.observe(self.sim.time, e, gravitational_potential(
-            self.world, self.sim.particles, self.config.gravity),
-            self.world.sum(self.local_load_work))
-        stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)
+        self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
+            self.config.gravity), self.world.sum(self.local_load_work))
+        stats = self.sim.body_stats()
         if self.history is not None:
             rows = {name: s["centroid"] + s["velocity"] for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
@@ -213,13 +222,14 @@ class Runner:
         sim = self.sim
         scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
+                   "element_steps": self.element_steps,
                    "frame_index": self.frame_index, "step_wall": self.step_wall,
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    "body_mass0": self.mass0.tolist(),
                    **sim.restart_state()}
         case = None if self.case is None else {"text": self.case_text, "case": self.case}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
-                           case=case)
+                           case=case, groups=sim.checkpoint_groups())
         self.last_checkpoint = sim.step_count
 
     def finish(self, dt):
@@ -239,6 +249,8 @@ class Runner:
 
     def close_outputs(self, summary=None):
         self.writer.close(summary)
+        if self.element_writer:
+            self.element_writer.close()
         if self.history is not None:
             self.history.close()
 
@@ -257,11 +269,23 @@ class Runner:
             "particles_lost": int(sim.lost),
             "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
             "windows": self.window_summary(),
-            "energy": energies(self.world, sim.particles),
+            "energy": sim.energies(),
             "energy_balance": self.watch.summary(),
             "memory": memory_summary(self.world, self.baseline_rss, self.n_initial),
             "bodies": self.body_summary(),
+            **self.element_summary(),
         }
+
+    def element_summary(self):
+        """With FEM bodies: their element count, element-steps per second of stepping
+        (the whole step's wall time, particles included) and each rank's elements at the
+        end."""
+        if not self.sim.elements:
+            return {}
+        rate = self.element_steps / self.step_wall if self.step_wall > 0 else 0.0
+        per_rank = self.world.allgather(self.sim.elements.n_elements)
+        return {"n_elements": self.n_elements, "element_steps_per_s": rate,
+                "elements_per_rank": [int(n) for n in per_rank]}
 
     def window_summary(self):
         """Each refined window's final box (mm), ratio and particle count."""
@@ -272,12 +296,13 @@ class Runner:
                  "n_particles": int(counts[1 + i])} for i, w in enumerate(self.sim.windows)]
 
     def body_summary(self):
-        stats = body_stats(self.world, self.sim.particles, self.sim.bodies.names)
+        stats = self.sim.body_stats()
         d = self.sim.decomposition
         for b, body in enumerate(stats.values()):
             body["lost_particles"] = int(d.lost_count[b])
             body["lost_mass"] = float(d.lost_mass[b])
-            if body["n_particles"] == 0:  # every particle left the grid: no box to give
+            if body["n_particles"] == 0 and not body.get("n_elements"):
+                # every particle left the grid: no box to give
                 body["bbox_min"] = list(body["centroid"])
                 body["bbox_max"] = list(body["centroid"])
         return stats

@@ -10,8 +10,11 @@ from .bodies import BodyTable, assign_loads, build_particles, fill_positions
 from .contact import ContactRules, GridContact
 from .couplings import TiedInterface
 from .decomposition import Decomposition
+from .energy import gravitational_potential, load_power
 from .errors import SetupError
+from .fem_bodies import FemBodies, build_meshes
 from .levels import Hierarchy
+from .observe import body_stats, energies
 from .particle_bodies import ParticleBodies
 from .refine import Refiner
 from .schemes import make_scheme
@@ -22,9 +25,11 @@ class Simulation:
     """Everything one rank needs to step a case: grid, decomposition, body kinds,
     couplings, and the stepper that runs them."""
 
-    def __init__(self, world, config, grid, slabs, particles, bodies, id_base=None):
+    def __init__(self, world, config, grid, slabs, particles, bodies, id_base=None,
+                 elements=None):
         self.world, self.config, self.grid = world, config, grid
         self.bodies = bodies
+        self.elements = elements        # solver.fem_bodies.FemBodies, or None
         n_total = max(world.sum(particles.n), 1)
         mean_mass = world.sum(float(particles.mass.sum())) / n_total
         m_tiny = 1e-12 * mean_mass
@@ -48,7 +53,7 @@ class Simulation:
             couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states)))
         self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
                                make_scheme(config.time.scheme),
-                               self.refiner, m_tiny)
+                               self.refiner, m_tiny, [elements] if elements else [])
         self.decomposition.update_cell_ranges(self.kinds)
         self.loads = config.loads
         self.time, self.step_count = 0.0, 0
@@ -74,24 +79,33 @@ class Simulation:
         grid = CoarseGrid.from_config(config.grid)
         filled = fill_positions(config, fill_body, case_dir)
         x = np.concatenate([positions for positions, _ in filled])
-        slabs = choose_slabs(grid.cell_histograms(x), world.size, config.decomposition.axis)
+        meshes = build_meshes(config, case_dir)
+        centroids = [m.points[m.hexes].mean(axis=1) for m in meshes.values()]
+        counts = grid.cell_histograms(np.concatenate([x] + centroids))  # elements count too
+        slabs = choose_slabs(counts, world.size, config.decomposition.axis)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
-        return grid, filled, slabs, mine
+        return grid, filled, slabs, mine, meshes
 
     @classmethod
     def from_layout(cls, world, config, layout):
         """The initial state from what ``lay_out`` returned."""
-        grid, filled, slabs, mine = layout
+        grid, filled, slabs, mine, meshes = layout
         bodies = BodyTable(config)
         particles = build_on_every_rank(world, lambda: build_particles(config, bodies, filled,
                                                                        mine))
         problems = assign_loads(config, particles, world.sum)
+        elements = FemBodies(meshes, config, bodies, world, grid, slabs) if meshes else None
+        if elements:
+            problems += elements.assign_loads(config.loads, bodies.names)
+            elements.forget_whole_mesh()
         if problems:
             raise SetupError(problems)
-        return cls(world, config, grid, slabs, particles, bodies)
+        return cls(world, config, grid, slabs, particles, bodies, elements=elements)
 
     @classmethod
-    def from_checkpoint(cls, world, config, scalars, columns):
+    def from_checkpoint(cls, world, config, scalars, columns, groups=None):
+        """The state of a checkpoint (``groups``: its FEM ``elements`` and ``nodes``, whole,
+        when the case has FEM bodies)."""
         grid = CoarseGrid.from_config(config.grid)
         bodies = BodyTable(config)
         particles = Particles(columns)
@@ -100,8 +114,12 @@ class Simulation:
             counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]])
         refined = scalars.get("refine")
+        elements = None
+        if any(b.method == "fem" for b in config.bodies):
+            elements = FemBodies.from_checkpoint(groups["elements"], groups["nodes"], config,
+                                                 bodies, world, grid, slabs)
         sim = cls(world, config, grid, slabs, particles, bodies,
-                  refined["id_base"] if refined else None)
+                  refined["id_base"] if refined else None, elements=elements)
         if refined:
             sim.refiner.restore(refined)
         sim.decomposition.send_to_owners(sim.kinds)
@@ -118,6 +136,8 @@ class Simulation:
     def advance(self, dt):
         """One step of ``dt`` from ``time``, the loads at the step's mid-time."""
         self.points.load_vectors = self.load_vectors(self.time + 0.5 * dt)
+        if self.elements:
+            self.elements.load_vectors = self.points.load_vectors
         self.stepper.step(dt)
         self.time += dt
         self.step_count += 1
@@ -140,7 +160,13 @@ class Simulation:
             kind.sort_by_cell(self.grid)
 
     def rebalance(self, threshold):
-        return self.decomposition.rebalance(threshold, self.kinds)
+        """Rebalance the slabs; FEM elements whose centroid left their rank's slab
+        migrate."""
+        if not self.elements:
+            return self.decomposition.rebalance(threshold, self.kinds)
+        result = self.decomposition.rebalance(threshold, self.kinds, [self.elements])
+        self.elements.migrate(self.grid, self.slabs)
+        return result
 
     def restart_state(self):
         """What a checkpoint keeps beyond the points' columns."""
@@ -149,6 +175,10 @@ class Simulation:
                 "lost_count": self.decomposition.lost_count.tolist(),
                 "lost_mass": self.decomposition.lost_mass.tolist(),
                 "refine": self.refiner.state()}
+
+    def checkpoint_groups(self):
+        """The row sets a checkpoint keeps beside the particles (FEM bodies), or None."""
+        return self.elements.checkpoint_groups() if self.elements else None
 
     def window_counts(self):
         """Points on each grid level, over all ranks (0: the coarse grid)."""
@@ -163,7 +193,45 @@ class Simulation:
         c = np.array([self.bodies.initial_wave_speed(b) for b in range(len(self.bodies.names))])
         speeds = c[p.body] + np.linalg.norm(p.v, axis=1) if p.n else np.zeros(1)
         finest = max([w.ratio for w in self.windows] + [1])
-        return self.world.max(float(speeds.max())) * finest
+        elements = self.elements.initial_speed() if self.elements else 0.0
+        return max(self.world.max(float(speeds.max())) * finest, self.world.max(elements))
+
+    # -- what the outputs ask, over every body kind ------------------------------------
+    def energies(self):
+        """Kinetic, internal (the elements' hourglass energy included) and total energy
+        over all ranks; with FEM bodies also ``hourglass`` on its own."""
+        e = energies(self.world, self.particles)
+        if not self.elements:
+            return e
+        kinetic, internal, hourglass = self.world.sum(np.array(self.elements.energies()))
+        e["kinetic"] += kinetic
+        e["internal"] += internal + hourglass
+        e["total"] = e["kinetic"] + e["internal"]
+        e["hourglass"] = hourglass
+        return e
+
+    def body_stats(self):
+        """Per body the run contract's values (an FEM body's from its nodes, with its
+        element and node counts and energies)."""
+        stats = body_stats(self.world, self.particles, self.bodies.names)
+        if self.elements:
+            stats.update(self.elements.body_stats())
+        return stats
+
+    def gravitational_potential(self, gravity):
+        potential = gravitational_potential(self.world, self.particles, gravity)
+        if self.elements:
+            potential += self.world.sum(self.elements.potential(gravity))
+        return potential
+
+    def load_power(self, vectors):
+        """This rank's power of the loads at ``vectors`` (particles and FE nodes)."""
+        power = load_power(self.particles, vectors)
+        return power + (self.elements.load_power(vectors) if self.elements else 0.0)
+
+    @property
+    def n_elements(self):
+        return self.world.sum(self.elements.n_elements if self.elements else 0)
 
     def load_vectors(self, time):
         """Load vector of every load at ``time`` (value times its time function)."""

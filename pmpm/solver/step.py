@@ -19,23 +19,29 @@ class Stepper:
     scheme : a scheme of pmpm.solver.schemes
     refiner : solver.refine.Refiner   windows that move, particles that split
     m_tiny : float   nodal mass below which a node counts as empty
+    element_kinds : list of kinds with their own nodes (solver.fem_bodies.FemBodies):
+        stresses, forces and trial velocities when the grid integrates, positions when
+        the points move; not on the grid (no coupling yet)
     """
 
-    def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny):
+    def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny,
+                 element_kinds=()):
         self.decomposition, self.grids = decomposition, grids
         self.kinds, self.couplings = list(kinds), list(couplings)
         self.scheme, self.refiner, self.m_tiny = scheme, refiner, m_tiny
+        self.element_kinds = list(element_kinds)
         self.fastest = 0.0
 
     def step(self, dt):
-        for kind in self.kinds:
+        for kind in self.kinds + self.element_kinds:
             kind.fault = None
         self.decomposition.assign_levels(self.kinds)
         self.decomposition.build_blocks()
         self.scheme.advance(self, dt)
         self.refiner.move_windows_and_split()
-        fault = next((k.fault for k in self.kinds if k.fault), None)
-        self.fastest = self.decomposition.finish_step(self.kinds, self.fastest, fault)
+        fault = next((k.fault for k in self.kinds + self.element_kinds if k.fault), None)
+        fastest = max([self.fastest] + [k.speed for k in self.element_kinds])
+        self.fastest = self.decomposition.finish_step(self.kinds, fastest, fault)
 
     # -- the phases --------------------------------------------------------------------
     def map_to_grid(self):
@@ -85,13 +91,19 @@ class Stepper:
         self.grids.empty("gnew", 6)
         for s in self.grids:
             mpm.integrate_nodes(s.nodal, s.force, s.gvel, dt, s.nodes, self.m_tiny, s.gnew)
+        for kind in self.element_kinds:       # central differences on the FE nodes
+            kind.stress_and_forces(dt)
+            kind.integrate(dt)
         self.ask_couplings("after_integrate", self.grids, dt)
 
     def update_points(self, dt):
-        """Grid to points: positions and velocities (Eqs. 15-16)."""
+        """Grid to points: positions and velocities (Eqs. 15-16); FE nodes move with
+        their new half-step velocities."""
         for s in self.grids:
             for kind in self.kinds:
                 kind.grid_to_points(s, dt, self.view(s))
+        for kind in self.element_kinds:
+            kind.move(dt)
 
     # -- asking ------------------------------------------------------------------------
     def ask_kinds(self, phase):

@@ -1,0 +1,177 @@
+"""The keys of an FEM body (``method: fem``, ``fem:``) and the checks that relate them to
+the rest of the case: the geometries an FEM mesh is made from, a readable and
+well-oriented mesh, no grid contact or window that would need coupling to particles
+(seed 004's CFEMP and ICFEMP are not built yet)."""
+import os
+
+import numpy as np
+
+from .errors import join, unknown_name
+from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, list_of,
+                     mapping, number, text, valid, vector)
+from .hexmesh import InvertedElementError, box_counts, hex_mesh, read_node_sets
+from .mesh import MeshReadError
+
+METHODS = ("particles", "fem")
+HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
+FEM_GEOMETRIES = ("box", "mesh")
+AXIS_NAMES = ("x", "y", "z")
+CONSTRAINT = {
+    "region": Field(mapping({"min": Field(vector(), unit="mm", doc="lower corner"),
+                             "max": Field(vector(), unit="mm", doc="upper corner")}),
+                    OMIT, "mm", "the body's nodes inside this box at t = 0 (give region or "
+                                "node_set)"),
+    "node_set": Field(text(), OMIT, doc="a node set of the body's mesh file (Abaqus *NSET, "
+                                        "meshio point_sets; give region or node_set)"),
+    "fix": Field(list_of(choice(AXIS_NAMES, "axis"), 1, "axis"),
+                 doc="the velocity components held at zero, e.g. [x, y, z] (clamped) or [z]"),
+}
+FEM = {
+    "element_size": Field(number(greater(0)), OMIT, "mm",
+                          "edge of the elements a box is cut into: round(edge / "
+                          "element_size) elements, at least 1, along each edge of the box "
+                          "(left out: grid.cell); a mesh file keeps its own elements"),
+    "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
+                       doc="Flanagan-Belytschko hourglass control of the one-point "
+                           "elements: `stiffness` resists the hourglass displacement "
+                           "(elastic plates, slow loading), `viscous` its rate (impact)"),
+    "hourglass_coefficient": Field(number(at_least(0)), OMIT, "1",
+                                   "the hourglass coefficient k (left out: 0.05 for "
+                                   "stiffness, 0.1 for viscous): viscous Q = k rho c "
+                                   "V^(2/3)/4 q, stiffness dQ/dt = k rho c^2 (sum of b.b)/(3V) q, "
+                                   "with q the hourglass velocity rates"),
+    "constraints": Field(list_of(mapping(CONSTRAINT), 0, "constraint"), [],
+                         doc="velocity components held at zero on nodes chosen by a box "
+                             "or a node set (besides the grid faces' conditions, which "
+                             "nodes on a face take)"),
+}
+METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it is a mesh "
+              "of 8-node hexahedra (box or mesh geometry) advanced by explicit central "
+              "differences with lumped masses, one-point integration and hourglass "
+              "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
+              "holds its centroid; with a `rigid` material it moves with its velocity. FEM "
+              "bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
+              "or symmetry face takes that condition) but are not yet coupled to particle "
+              "bodies: they pass through them")
+
+
+def check_fem_bodies(case, case_dir, check_geometry, problems):
+    """Complete each FEM body's ``fem`` mapping (element size, hourglass coefficient) and
+    report what an FEM body cannot be used with yet."""
+    bodies = case["bodies"] if case["bodies"] is not INVALID else []
+    fem_names = set()
+    for i, body in enumerate(bodies):
+        if not valid(body, "method", "fem") or body["method"] != "fem":
+            continue
+        path = join("bodies", i)
+        if valid(body, "name"):
+            fem_names.add(body["name"])
+        complete_fem(body["fem"], case["grid"])
+        check_constraints(body, path, problems)
+        if valid(body, "geometry"):
+            check_fem_geometry(body, case_dir, check_geometry, path, problems)
+    if fem_names:
+        check_no_coupling(case, fem_names, problems)
+
+
+def complete_fem(fem, grid):
+    if valid(fem, "hourglass"):
+        fem.setdefault("hourglass_coefficient", HOURGLASS_DEFAULTS[fem["hourglass"]])
+    if "element_size" not in fem and valid(grid, "cell"):
+        fem["element_size"] = grid["cell"]
+
+
+#: The most elements a box body may be cut into (each takes about 1 kB with its nodes).
+MAX_ELEMENTS = 1e8
+
+
+def check_fem_geometry(body, case_dir, check_geometry, path, problems):
+    geometry = body["geometry"]
+    if has_invalid(geometry):
+        return
+    if geometry["type"] not in FEM_GEOMETRIES:
+        problems.add(join(join(path, "geometry"), "type"),
+                     f"an FEM body is made from a box or a mesh for now, not a "
+                     f"{geometry['type']}")
+        return
+    if not valid(body["fem"], "element_size") or too_many_elements(body, path, problems):
+        return
+    if not check_geometry:
+        return
+    key = join(join(path, "geometry"), "file" if geometry["type"] == "mesh" else "type")
+    try:
+        hex_mesh(geometry, body["fem"]["element_size"], case_dir)
+        check_node_sets(body, case_dir, path, problems)
+    except MeshReadError as error:
+        line = f"{key}: cannot read {geometry['file']!r}: {error}"
+        if line not in problems.lines:       # the particle fill's check may have said it
+            problems.add(key, line[len(key) + 2:])
+    except InvertedElementError as error:
+        problems.add(key, str(error))
+
+
+def check_constraints(body, path, problems):
+    """Each constraint names exactly one of region and node_set; node sets need a mesh."""
+    constraints = body["fem"].get("constraints") if valid(body, "fem") else None
+    if not isinstance(constraints, list):
+        return
+    for j, item in enumerate(constraints):
+        if not isinstance(item, dict):
+            continue
+        where = join(join(join(path, "fem"), "constraints"), j)
+        if ("region" in item) == ("node_set" in item):
+            problems.add(where, "give exactly one of 'region' and 'node_set'")
+        elif "node_set" in item and valid(body, "geometry") and \
+                body["geometry"]["type"] != "mesh":
+            problems.add(join(where, "node_set"), "node sets come with a mesh file; this "
+                         "body is a " + body["geometry"]["type"])
+        elif valid(item, "region"):
+            low, high = item["region"]["min"], item["region"]["max"]
+            if any(a > b for a, b in zip(low, high)):
+                problems.add(join(where, "region"), "min must not exceed max")
+
+
+def check_node_sets(body, case_dir, path, problems):
+    """Every node_set a constraint names is in the body's mesh file."""
+    names = [(j, c["node_set"]) for j, c in enumerate(body["fem"].get("constraints", []))
+             if isinstance(c, dict) and isinstance(c.get("node_set"), str)]
+    if not names or body["geometry"]["type"] != "mesh":
+        return
+    sets = read_node_sets(os.path.join(case_dir, body["geometry"]["file"]))
+    for j, name in names:
+        if name not in sets:
+            problems.add(join(join(join(join(path, "fem"), "constraints"), j), "node_set"),
+                         unknown_name("node set", name, sets))
+
+
+def too_many_elements(body, path, problems):
+    geometry, size = body["geometry"], body["fem"]["element_size"]
+    if geometry["type"] != "box":
+        return False
+    count = float(np.prod(box_counts(geometry["min"], geometry["max"], size)
+                          .astype(np.float64)))
+    if count > MAX_ELEMENTS:
+        problems.add(join(join(path, "fem"), "element_size"),
+                     f"{size:g} cuts the box into {count:.3g} elements, more than "
+                     f"{MAX_ELEMENTS:.0e}")
+        return True
+    return False
+
+
+def check_no_coupling(case, fem_names, problems):
+    """Grid contact and window-following would need FE nodes on the grid (CFEMP)."""
+    contact = case["contact"]
+    if valid(contact, "pairs"):
+        for i, pair in enumerate(contact["pairs"]):
+            named = [n for n in pair.get("bodies", []) if n in fem_names] \
+                if isinstance(pair, dict) else []
+            if named:
+                problems.add(join(join("contact.pairs", i), "bodies"),
+                             f"'{named[0]}' is an FEM body: FEM bodies take no part in "
+                             f"grid contact yet")
+    grid = case["grid"]
+    windows = grid.get("windows") if isinstance(grid, dict) else None
+    for i, window in enumerate(windows if isinstance(windows, list) else []):
+        if valid(window, "follow") and window["follow"] in fem_names:
+            problems.add(f"grid.windows[{i}].follow", f"'{window['follow']}' is an FEM "
+                         f"body: a window follows particle bodies only")

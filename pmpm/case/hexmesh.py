@@ -1,0 +1,112 @@
+"""Hexahedral meshes of FEM bodies: a structured mesh of a box, or the hexahedra of a mesh
+file meshio reads; then the body's ``rotate``. Node order is VTK's (pmpm.fem.hexahedron).
+
+Plain numpy: an element is refused when its Jacobian at the centre is not positive
+(inverted, or collapsed to no volume), so that the solver never starts on one.
+"""
+import os
+
+import numpy as np
+
+from .mesh import MeshReadError, _read_mesh
+from .shapes import rotation_matrix
+
+#: natural coordinates of the VTK-ordered corners
+CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                    [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], np.float64)
+
+
+class InvertedElementError(ValueError):
+    """An element whose Jacobian at its centre is not positive."""
+
+
+def box_counts(lo, hi, element_size):
+    """Elements per direction of a box: round(edge / element_size), at least 1."""
+    edges = np.asarray(hi, float) - np.asarray(lo, float)
+    with np.errstate(over="ignore"):                  # a huge count is refused by the caller
+        counts = np.minimum(edges / element_size, 2.0 ** 62)
+    return np.maximum(np.rint(counts), 1).astype(np.int64)
+
+
+def box_mesh(lo, hi, counts):
+    """(points (n, 3), hexes (m, 8) int64) of a box cut into ``counts`` elements per
+    direction; nodes numbered x slowest, z fastest."""
+    nx, ny, nz = (int(c) for c in counts)
+    axes = [np.linspace(lo[a], hi[a], int(counts[a]) + 1) for a in range(3)]
+    grid = np.meshgrid(*axes, indexing="ij")
+    points = np.stack([g.ravel() for g in grid], axis=1)
+    node = np.arange(len(points)).reshape(nx + 1, ny + 1, nz + 1)
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz),
+                                              indexing="ij"))
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0),
+               (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+    hexes = np.stack([node[i + a, j + b, k + c] for a, b, c in corners], axis=1)
+    return points, hexes.astype(np.int64)
+
+
+def read_hexes(path, scale=1.0, translate=(0.0, 0.0, 0.0)):
+    """(points, hexes) of the hexahedra of a mesh file (first 8 nodes of hexahedron20/27
+    cells), scaled then translated, unused points dropped. MeshReadError when the file
+    cannot be read or holds no hexahedron."""
+    mesh = _read_mesh(path)
+    points = np.asarray(mesh.points, float)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise MeshReadError(f"points are not 3D (shape {points.shape})")
+    blocks = [np.asarray(b.data)[:, :8] for b in mesh.cells if b.type.startswith("hexahedron")]
+    if not blocks:
+        found = ", ".join(sorted({block.type for block in mesh.cells})) or "none"
+        raise MeshReadError(f"no hexahedron cells, which an FEM body needs (found: {found})")
+    hexes = np.concatenate(blocks).astype(np.int64)
+    used, hexes = np.unique(hexes, return_inverse=True)
+    return points[used] * scale + np.asarray(translate, float), hexes.reshape(-1, 8)
+
+
+def centre_jacobians(points, hexes):
+    """det(dx/dxi) at each element's centre (xi = 0): 1/8 of a parallelepiped's volume."""
+    xe = points[hexes]                               # (m, 8, 3)
+    jac = np.einsum("mki,ka->mia", xe, CORNERS) / 8.0
+    return np.linalg.det(jac)
+
+
+def check_orientation(points, hexes):
+    """InvertedElementError naming the first element (and how many) whose centre
+    Jacobian is not positive."""
+    det = centre_jacobians(points, hexes)
+    bad = np.flatnonzero(~(det > 0))
+    if len(bad):
+        raise InvertedElementError(
+            f"element {int(bad[0])} (of {len(bad)} such) is inverted or has no volume "
+            f"(Jacobian {det[bad[0]]:.3g} at its centre); number its nodes in VTK order, "
+            f"0-3 counter-clockwise seen from 4-7")
+
+
+def hex_mesh(geometry, element_size, case_dir="."):
+    """(points, hexes) of an FEM body's validated ``geometry`` (box or mesh), rotated by
+    its ``rotate``. Raises MeshReadError or InvertedElementError."""
+    if geometry["type"] == "box":
+        counts = box_counts(geometry["min"], geometry["max"], element_size)
+        points, hexes = box_mesh(geometry["min"], geometry["max"], counts)
+    else:
+        points, hexes = read_hexes(os.path.join(case_dir, geometry["file"]),
+                                   geometry["scale"], geometry["translate"])
+    rotate = geometry.get("rotate")
+    if rotate:
+        origin = np.asarray(rotate["origin"], float)
+        matrix = rotation_matrix(rotate["axis"], rotate["angle_deg"])
+        points = origin + (points - origin) @ matrix.T
+    check_orientation(points, hexes)
+    return points, hexes
+
+
+def read_node_sets(path):
+    """{name: node indices} of the node sets (meshio ``point_sets``: Abaqus *NSET, ...) of
+    a mesh file, numbered as :func:`read_hexes` numbers its points."""
+    mesh = _read_mesh(path)
+    blocks = [np.asarray(b.data)[:, :8] for b in mesh.cells if b.type.startswith("hexahedron")]
+    used = np.unique(np.concatenate(blocks)) if blocks else np.zeros(0, np.int64)
+    sets = {}
+    for name, indices in (mesh.point_sets or {}).items():
+        indices = np.asarray(indices, np.int64).ravel()
+        kept = indices[np.isin(indices, used)]
+        sets[str(name)] = np.searchsorted(used, kept)
+    return sets

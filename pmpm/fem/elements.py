@@ -1,0 +1,224 @@
+"""Explicit hexahedral elements (Numba): one-point integration with the Flanagan-Belytschko
+mean gradient, the stress update of the particles' material kernel, hourglass control,
+lumped masses and the central-difference update of the nodes (seed 004 Eqs. 16-21;
+``shared/seeds/004_NOTES.md`` Sec. 1.1).
+
+Per element and step, from the nodal positions ``x`` and the half-step velocities ``v``:
+
+1. ``b_I = dV/dx_I`` and V (:mod:`pmpm.fem.hexahedron`); V <= 0 is a fault;
+2. ``L = sum_I v_I (x) b_I / V`` and the material update
+   ``update_stress_columns`` on the element's row of the material columns, with the
+   characteristic length ``L_e = V / largest face area`` (bulk viscosity);
+3. internal force ``f_I = -(sigma - q I) b_I`` (the element volume times the stress times
+   the mean gradient);
+4. hourglass force ``f_I -= sum_a Q_a gamma_aI`` with the hourglass rates
+   ``q_a = sum_I v_I gamma_aI`` and, per body, either the viscous form
+   ``Q_a = k rho c V^(2/3) / 4 q_a`` or the stiffness form
+   ``Q_a += dt k rho c^2 (sum_I |b_I|^2) / (3 V) q_a`` (k the case's coefficient); the
+   energy the hourglass forces take is added to the element's hourglass energy
+   (viscous: dissipated; stiffness: stored, as a trapezoid; its Q_a turn with the
+   element's spin, :func:`rotate_resistance`). The stiffness is scaled so that on a
+   cube the largest eigenfrequency stays the physical 2 c / h up to k = 0.1 (2.19 at
+   0.15): the stable step L_e / c is not reduced (without the 3, k = 0.05 gave 2.19 and
+   the wave bar went unstable at cfl 0.95).
+
+Nothing here reads configuration or calls MPI; the arrays come in whole records.
+"""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ..materials.kernels import update_stress_columns
+from ..materials.tensors import fdiv
+from .hexahedron import hourglass_shapes, largest_face_area, mean_gradient
+
+#: hourglass forms (``Hourglass.kind``)
+VISCOUS, STIFFNESS = 0, 1
+HOURGLASS_KINDS = {"viscous": VISCOUS, "stiffness": STIFFNESS}
+#: fault codes returned with the element index
+NO_FAULT, NON_POSITIVE_VOLUME, FAILED_UPDATE = 0, 1, 2
+
+#: Nodes and elements: ``x``, ``v`` (n, 3) positions and half-step velocities, ``hexes``
+#: (m, 8) int64 node indices (VTK order), ``body`` (m,) int32 body index of each element.
+ElementMesh = namedtuple("ElementMesh", "x v hexes body")
+#: Per body ``kind`` (nb,) int64 (VISCOUS or STIFFNESS) and ``coefficient`` (nb,); per
+#: element the stiffness form's generalized forces ``resist`` (m, 12) and the hourglass
+#: energy ``energy`` (m,).
+Hourglass = namedtuple("Hourglass", "kind coefficient resist energy")
+
+
+@njit(cache=True)
+def element_forces(mesh, mat, bodies, hourglass, dt, force):
+    """Stress update and internal plus hourglass forces of every element, added to
+    ``force`` (n, 3).
+
+    Parameters
+    ----------
+    mesh : ElementMesh
+    mat : pmpm.materials.state.MaterialState   one row per element, updated in place
+    bodies : pmpm.kernels.records.BodyMaterials
+    hourglass : Hourglass   ``resist`` and ``energy`` updated in place
+    dt : float
+    force : float64 (n, 3)
+
+    Returns
+    -------
+    (rate, bad, why): the largest c / L_e over the elements (1 / their stable time
+    step), the first faulty element (-1: none) and why (NON_POSITIVE_VOLUME,
+    FAILED_UPDATE).
+    """
+    x, v, hexes, body = mesh
+    stress, F, rho, eps_p, e_int, temp, q = mat
+    codes, params, rigid = bodies
+    hg_kind, hg_coefficient, resist, hg_energy = hourglass     # unpacked before the loop
+    xe, ve, b = np.empty((8, 3)), np.empty((8, 3)), np.empty((8, 3))
+    gamma, fe, Lg = np.empty((4, 8)), np.empty((8, 3)), np.empty((3, 3))
+    rate, bad, why = 0.0, -1, NO_FAULT
+    for e in range(hexes.shape[0]):
+        bb = body[e]
+        if rigid[bb]:              # moves with its prescribed velocity: no stress, no force
+            continue
+        for k in range(8):
+            n = hexes[e, k]
+            for i in range(3):
+                xe[k, i] = x[n, i]
+                ve[k, i] = v[n, i]
+        volume = mean_gradient(xe, b)
+        if not volume > 0.0:
+            if bad < 0:
+                bad, why = e, NON_POSITIVE_VOLUME
+            continue
+        inv_volume = fdiv(1.0, volume)      # no division with a raise path in the loop
+        length = volume * fdiv(1.0, largest_face_area(xe))
+        for i in range(3):
+            for j in range(3):
+                s = 0.0
+                for k in range(8):
+                    s += ve[k, i] * b[k, j]
+                Lg[i, j] = s * inv_volume
+        c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
+                                  eps_p, e_int, temp, q)
+        if not c >= 0.0:
+            if bad < 0:
+                bad, why = e, FAILED_UPDATE
+            continue
+        rate = max(rate, c * fdiv(1.0, length))
+        stress_forces(stress, e, q[e], b, fe)
+        hourglass_shapes(xe, b, inv_volume, gamma)
+        if hg_kind[bb] == STIFFNESS:
+            rotate_resistance(resist, e, Lg, dt)
+        hg_energy[e] += hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho[e], c, dt,
+                                         hg_kind[bb], hg_coefficient[bb], resist, fe)
+        for k in range(8):
+            n = hexes[e, k]
+            for i in range(3):
+                force[n, i] += fe[k, i]
+    return rate, bad, why
+
+
+@njit(cache=True, inline="always")
+def stress_forces(stress, e, q, b, fe):
+    """fe[I] = -(sigma - q I) b_I, sigma the Voigt row e (xx yy zz xy yz zx)."""
+    sxx, syy, szz = stress[e, 0] - q, stress[e, 1] - q, stress[e, 2] - q
+    sxy, syz, szx = stress[e, 3], stress[e, 4], stress[e, 5]
+    for k in range(8):
+        bx, by, bz = b[k, 0], b[k, 1], b[k, 2]
+        fe[k, 0] = -(sxx * bx + sxy * by + szx * bz)
+        fe[k, 1] = -(sxy * bx + syy * by + syz * bz)
+        fe[k, 2] = -(szx * bx + syz * by + szz * bz)
+
+
+@njit(cache=True, inline="always")
+def hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho, c, dt, kind, coefficient,
+                     resist, fe):
+    """Subtract the hourglass forces of element ``e`` from ``fe``; returns the energy
+    they take over the step: dt sum_a Q_a . q_a for the viscous form (dissipated), and
+    for the stiffness form the trapezoid dt sum_a (Q_a_old + Q_a) / 2 . q_a, which is
+    the change of the stored k u^2 / 2 (with Q_a alone, it overcounts k (q dt)^2 / 2 every
+    step: a ringing block reported 14 times the hourglass energy it held)."""
+    if kind == STIFFNESS:
+        bb = 0.0
+        for k in range(8):
+            bb += b[k, 0] * b[k, 0] + b[k, 1] * b[k, 1] + b[k, 2] * b[k, 2]
+        gain = dt * coefficient * rho * c * c * bb * inv_volume / 3.0
+    else:
+        gain = 0.25 * coefficient * rho * c * np.cbrt(volume * volume)
+    work = 0.0
+    for a in range(4):
+        for i in range(3):
+            rate = 0.0
+            for k in range(8):
+                rate += ve[k, i] * gamma[a, k]
+            if kind == STIFFNESS:
+                old = resist[e, 3 * a + i]
+                generalized = old + gain * rate
+                resist[e, 3 * a + i] = generalized
+                work += 0.5 * (old + generalized) * rate
+            else:
+                generalized = gain * rate
+                work += generalized * rate
+            for k in range(8):
+                fe[k, i] -= generalized * gamma[a, k]
+    return dt * work
+
+
+@njit(cache=True, inline="always")
+def rotate_resistance(resist, e, Lg, dt):
+    """Turn the stiffness form's generalized forces Q_a (vectors in global axes) with the
+    element's spin W = (L - L^T)/2 over the step, Q_a += dt W Q_a, so that a spinning
+    element's stored hourglass forces turn with it (as the stress's Jaumann rate)."""
+    w01 = 0.5 * (Lg[0, 1] - Lg[1, 0]) * dt
+    w02 = 0.5 * (Lg[0, 2] - Lg[2, 0]) * dt
+    w12 = 0.5 * (Lg[1, 2] - Lg[2, 1]) * dt
+    for a in range(4):
+        q0, q1, q2 = resist[e, 3 * a], resist[e, 3 * a + 1], resist[e, 3 * a + 2]
+        resist[e, 3 * a] = q0 + w01 * q1 + w02 * q2
+        resist[e, 3 * a + 1] = q1 - w01 * q0 + w12 * q2
+        resist[e, 3 * a + 2] = q2 - w02 * q0 - w12 * q1
+
+
+@njit(cache=True)
+def lumped_masses(hexes, volumes, densities, mass):
+    """mass[n] = sum over the elements at node n of rho0 V0 / 8 (``mass`` zeroed first)."""
+    mass[:] = 0.0
+    for e in range(hexes.shape[0]):
+        share = densities[e] * volumes[e] / 8.0
+        for k in range(8):
+            mass[hexes[e, k]] += share
+
+
+@njit(cache=True)
+def external_forces(mass, gravity, load, load_scale, load_vectors, force):
+    """Add gravity m g and each loaded node's share ``load_scale * load_vectors[load]``
+    (``load`` -1: none) to ``force``."""
+    for n in range(mass.shape[0]):
+        for i in range(3):
+            force[n, i] += mass[n] * gravity[i]
+        if load[n] >= 0:
+            for i in range(3):
+                force[n, i] += load_scale[n] * load_vectors[load[n], i]
+
+
+@njit(cache=True)
+def advance_velocities(v, force, mass, fixed, dt):
+    """Central difference v <- v + dt f / m at the nodes; then the constraints: ``fixed``
+    (n, 3) bool, True where that velocity component is held at zero."""
+    for n in range(v.shape[0]):
+        inv = dt * fdiv(1.0, mass[n])
+        for i in range(3):
+            v[n, i] = 0.0 if fixed[n, i] else v[n, i] + force[n, i] * inv
+
+
+@njit(cache=True)
+def advance_positions(x, v, dt):
+    """x <- x + dt v (v the new half-step velocity); returns the first node whose
+    position is not finite (-1: none)."""
+    bad = -1
+    for n in range(x.shape[0]):
+        for i in range(3):
+            x[n, i] += dt * v[n, i]
+        if bad < 0 and not (np.isfinite(x[n, 0]) and np.isfinite(x[n, 1])
+                            and np.isfinite(x[n, 2])):
+            bad = n
+    return bad

@@ -1,0 +1,45 @@
+"""XDMF 3 description of the FEM frames (``DIR/elements.xdmf``), so that ParaView opens
+elements.h5 as a time series of Hexahedron meshes: the connectivity ``/mesh/hexes``,
+the node positions of each frame as geometry, node velocities, and per element the six
+stress scalars (as in particles.xdmf), eps_p, density, e_int and the hourglass energy."""
+from xml.sax.saxutils import quoteattr
+
+from ._files import atomic_write_text
+from .xdmf import STRESS_SCALARS, _column_slab, _data_item
+
+CELL_SCALARS = ("eps_p", "density", "e_int", "hourglass_energy")
+
+
+def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements):
+    """Write ``path`` for ``frames``: a list of (group path, time) in ``h5_name``."""
+    grids = "".join(_grid(h5_name, group, time, n_nodes, n_elements)
+                    for group, time in frames)
+    text = ('<?xml version="1.0" ?>\n<Xdmf Version="3.0">\n <Domain>\n'
+            '  <Grid Name="elements" GridType="Collection" CollectionType="Temporal">\n'
+            f"{grids}  </Grid>\n </Domain>\n</Xdmf>\n")
+    atomic_write_text(path, text)
+
+
+def _grid(h5, group, time, n, m):
+    pad = "      "
+    ref = f"{h5}:{group}"
+    parts = [f'   <Grid Name={quoteattr(group.rsplit("/", 1)[-1])} GridType="Uniform">\n',
+             f'    <Time Value="{float(time)!r}"/>\n',
+             f'    <Topology TopologyType="Hexahedron" NumberOfElements="{m}" '
+             f'NodesPerElement="8">\n',
+             _data_item(f"{h5}:/mesh/hexes", (m, 8), "<i8", pad), "    </Topology>\n",
+             '    <Geometry GeometryType="XYZ">\n',
+             _data_item(f"{ref}/node_x", (n, 3), "<f8", pad), "    </Geometry>\n",
+             _attribute("velocity", "Vector", "Node",
+                        _data_item(f"{ref}/node_v", (n, 3), "<f8", pad))]
+    parts += [_attribute(label, "Scalar", "Cell",
+                         _column_slab(f"{ref}/stress", m, 6, k, "<f8", pad))
+              for k, label in enumerate(STRESS_SCALARS)]
+    parts += [_attribute(name, "Scalar", "Cell", _data_item(f"{ref}/{name}", (m,), "<f8", pad))
+              for name in CELL_SCALARS]
+    return "".join(parts) + "   </Grid>\n"
+
+
+def _attribute(name, kind, center, body):
+    return (f'    <Attribute Name={quoteattr(name)} AttributeType="{kind}" '
+            f'Center="{center}">\n{body}    </Attribute>\n')

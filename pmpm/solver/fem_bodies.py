@@ -1,0 +1,496 @@
+"""The finite-element bodies of a run as a body kind of the step (seed 004 Sec. 2.3;
+``shared/seeds/004_NOTES.md`` Secs. 1.1 and 1.5): explicit central differences on 8-node
+hexahedra, velocities at half steps like the grid's.
+
+In each step, from the positions x^k and the velocities v^(k-1/2):
+
+* ``stress_and_forces``: the element stress update and internal plus hourglass forces
+  (pmpm.fem.elements), then gravity and loads; the stable element rate c / L_e, as the
+  coarse-grid speed of the same Courant number (``speed``);
+* ``integrate``: v^(k+1/2) = v^(k-1/2) + dt f / m, then the grid faces' conditions on the
+  nodes that lie on them;
+* ``move``: x^(k+1) = x^k + dt v^(k+1/2).
+
+No coupling to particles yet (CFEMP, ICFEMP). Over MPI an element belongs to the rank
+whose slab holds its centroid; it moves there with its state and its nodes when the
+decomposition checks its balance (the elements are not on the grid yet, so where they
+live changes no answer, only the balance); the forces of the nodes that several ranks
+hold are summed over them in rank order (pmpm.comm.shared_nodes), so every copy of a
+node moves the same and 1 rank agrees with N to round-off.
+"""
+import os
+from collections import namedtuple
+
+import numpy as np
+
+from ..comm.shared_nodes import exchange_objects, sum_shared_rows
+from ..fem.elements import (FAILED_UPDATE, HOURGLASS_KINDS, NON_POSITIVE_VOLUME,
+                            ElementMesh, Hourglass, advance_positions, advance_velocities,
+                            element_forces, external_forces, lumped_masses)
+from ..fem.hexahedron import FACES, element_geometry, element_volumes
+from ..kernels.records import BodyMaterials
+from ..materials import layout
+from ..materials.state import MaterialState
+from .bodies import initial_field
+from .errors import SetupError
+from .fem_partition import element_owners, partition_mesh, shared_with
+
+FAULTS = {NON_POSITIVE_VOLUME: "non-positive volume (inverted or collapsed element)",
+          FAILED_UPDATE: "constitutive update failed (NaN, non-convergence or "
+                         "non-positive density)"}
+
+
+class FemBodies:
+    """This rank's elements (those whose centroid lies in its slab) and their nodes, of
+    every FEM body, concatenated; nodes that elements of other ranks use too are shared
+    (their forces are summed over the sharers) and counted by the lowest sharer.
+
+    Parameters
+    ----------
+    meshes : dict body index -> FemMesh (points, hexes, fixed), the whole meshes
+    config : pmpm.case.CaseConfig
+    table : solver.bodies.BodyTable
+    world : comm.World
+    grid, slabs : the coarse grid and its slabs (element ownership at set-up; then
+        :meth:`migrate` when the decomposition checks its balance)
+    """
+
+    label = "element"
+
+    def __init__(self, meshes, config, table, world, grid, slabs):
+        self.take_config(config, table, world)
+        whole = WholeMesh(meshes, self.body_indices, table)
+        self.whole = whole
+        owner = element_owners(whole.centroids(), grid, slabs)
+        part = partition_mesh(whole.hexes, len(whole.x), owner, world.rank, world.size)
+        self.take_part(whole, part)
+        self.build_state(config)
+        self.fixed = face_constraints(self.x, config.grid) | whole.fixed[self.node_id]
+        self.fixed[self.rigid_nodes()] = False     # a rigid body keeps its velocity
+        self.load, self.load_scale = np.full(len(self.x), -1, np.int32), np.zeros(len(self.x))
+        self.force = np.zeros_like(self.x)
+
+    def take_config(self, config, table, world):
+        self.table, self.config, self.world = table, config, world
+        self.names = table.names
+        self.body_indices = [b for b, body in enumerate(config.bodies) if body.method == "fem"]
+        self.h = float(config.grid.cell)
+        self.gravity = np.asarray(config.gravity, np.float64)
+        self.load_vectors = np.zeros((1, 3))
+        self.materials = BodyMaterials(table.codes, table.params, table.rigid)
+        self.speed, self.fault = 0.0, None
+
+    @classmethod
+    def from_checkpoint(cls, elements, nodes, config, table, world, grid, slabs):
+        """The FEM bodies of a checkpoint (``checkpoint_groups``: every element and every
+        node, each once), shared out to the slabs of this run's ranks."""
+        fem = cls.__new__(cls)
+        fem.take_config(config, table, world)
+        order = np.argsort(elements["element_id"], kind="stable")
+        elements = {k: col[order] for k, col in elements.items()}
+        order = np.argsort(nodes["node_id"], kind="stable")
+        nodes = {k: col[order] for k, col in nodes.items()}
+        fem.first_element = {b: int(np.flatnonzero(elements["body"] == b)[0])
+                             for b in fem.body_indices}
+        fem.output_mesh = (elements["hexes"], elements["body"], len(nodes["node_id"])) \
+            if world.is_root else None
+        centroids = nodes["x"][elements["hexes"]].mean(axis=1)   # node ids are 0 .. n-1
+        mine = element_owners(centroids, grid, slabs) == world.rank
+        used = np.unique(elements["hexes"][mine])
+        fem.hourglass = Hourglass(*fem.hourglass_forms(config), None, None)
+        fem.set_columns({k: col[mine] for k, col in elements.items()},
+                        {k: col[used] for k, col in nodes.items()})
+        return fem
+
+    def checkpoint_groups(self):
+        """This rank's elements and the nodes it counts, as row sets of a checkpoint."""
+        nodes = {k: col[self.owned] for k, col in self.node_columns().items()}
+        return {"elements": self.element_columns(), "nodes": nodes}
+
+    def hourglass_forms(self, config):
+        """Per body the hourglass kind and coefficient (0 for particle bodies)."""
+        nb = len(self.names)
+        kind, coefficient = np.zeros(nb, np.int64), np.zeros(nb)
+        for b in self.body_indices:
+            fem = config.bodies[b].fem
+            kind[b] = HOURGLASS_KINDS[fem["hourglass"]]
+            coefficient[b] = fem["hourglass_coefficient"]
+        return kind, coefficient
+
+    # -- set-up -------------------------------------------------------------------------
+    def take_part(self, whole, part):
+        self.element_id, self.node_id = part.elements, part.nodes
+        self.partners, self.owned = part.partners, part.owned
+        self.x = np.ascontiguousarray(whole.x[part.nodes])
+        self.hexes = np.ascontiguousarray(part.hexes, np.int64)
+        self.node_body = whole.node_body[part.nodes]
+        self.body = whole.body[part.elements]
+        self.vol0 = whole.vol0[part.elements]
+        self.mass = whole.mass[part.nodes]
+        self.first_element = {b: int(np.flatnonzero(whole.body == b)[0])
+                              for b in self.body_indices}
+
+    def build_state(self, config):
+        m = len(self.hexes)
+        rho0 = self.table.params[self.body, layout.RHO0]
+        self.element_mass = rho0 * self.vol0
+        self.v = np.zeros_like(self.x)
+        temp = np.empty(m)
+        centroids = self.centroids()
+        for b in self.body_indices:
+            body = config.bodies[b]
+            nodes, elems = self.node_body == b, self.body == b
+            for d, component in enumerate(body.velocity):
+                self.v[nodes, d] = initial_field(component, self.x[nodes],
+                                                 f"bodies[{b}].velocity[{d}]")
+            t_room = self.table.params[b, layout.T_ROOM]
+            temp[elems] = initial_field(t_room if body.temperature is None
+                                        else body.temperature, centroids[elems],
+                                        f"bodies[{b}].temperature")
+        self.state = MaterialState(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
+                                   rho0.copy(), np.zeros(m), np.zeros(m), temp, np.zeros(m))
+        self.hourglass = Hourglass(*self.hourglass_forms(config), np.zeros((m, 12)),
+                                   np.zeros(m))
+
+    def assign_loads(self, loads, body_names):
+        """Mark the nodes each load on an FEM body acts on (on the whole mesh, so every
+        rank finds the same); returns problems for loads that select no node. A traction
+        gives each selected node a quarter of the area of every free face of its body
+        whose four nodes are all selected; a force is shared equally among the selected
+        nodes."""
+        whole, problems = self.whole, []
+        load, scale = np.full(len(whole.x), -1, np.int32), np.zeros(len(whole.x))
+        for i, item in enumerate(loads):
+            b = body_names.index(item.body)
+            if b not in self.body_indices:
+                continue
+            selected = whole.nodes_in(b, item.region)
+            if item.type == "traction":
+                area = free_face_areas(whole.x, whole.hexes[whole.body == b], selected)
+                selected &= area > 0
+                scale[selected] = area[selected]
+            elif selected.any():
+                scale[selected] = 1.0 / np.count_nonzero(selected)
+            if not selected.any():
+                problems.append(f"loads[{i}].region: selects no node of FEM body "
+                                f"'{item.body}'" + (" on a free face of its mesh"
+                                                    if item.type == "traction" else ""))
+            load[selected] = i
+        self.load, self.load_scale = load[self.node_id], scale[self.node_id]
+        return problems
+
+    def forget_whole_mesh(self):
+        """Keep of the whole mesh only what rank 0 writes (connectivity, body)."""
+        whole = self.whole
+        self.whole = None
+        self.output_mesh = (whole.hexes, whole.body, len(whole.x)) \
+            if self.world.is_root else None
+
+    # -- migration (seed 004 notes Sec. 4) ---------------------------------------------
+    def slab_cells(self, grid, axis):
+        """The coarse cell of each element's centroid along ``axis`` (the slabs' balance
+        counts elements with the particles)."""
+        if not len(self.hexes):
+            return np.zeros(0, np.int64)
+        cells = grid.cells_of(self.centroids())[:, axis]
+        return np.clip(cells, 0, int(grid.n_cells[axis]) - 1)
+
+    def migrate(self, grid, slabs):
+        """Send every element whose centroid has left this rank's slab to its new owner,
+        with its state and its nodes' (collective; one all-to-all, only when some
+        element moves). Returns whether any moved."""
+        owner = element_owners(self.centroids(), grid, slabs)
+        if not self.world.any(np.any(owner != self.world.rank)):
+            return False
+        elements, nodes = self.element_columns(), self.node_columns()
+        packages = []
+        for rank in range(self.world.size):
+            going = owner == rank
+            used = np.unique(self.hexes[going])
+            packages.append(({k: col[going] for k, col in elements.items()},
+                             {k: col[used] for k, col in nodes.items()}))
+        received = exchange_objects(self.world, packages)
+        elements = {k: np.concatenate([e[k] for e, _ in received]) for k in elements}
+        nodes = {k: np.concatenate([n[k] for _, n in received]) for k in nodes}
+        _, first = np.unique(nodes["node_id"], return_index=True)  # copies are equal
+        self.set_columns(elements, {k: col[first] for k, col in nodes.items()})
+        return True
+
+    def element_columns(self):
+        columns = {"element_id": self.element_id, "body": self.body, "vol0": self.vol0,
+                   "element_mass": self.element_mass, "hexes": self.node_id[self.hexes],
+                   "resist": self.hourglass.resist, "hg_energy": self.hourglass.energy}
+        columns.update(self.state._asdict())
+        return columns
+
+    def node_columns(self):
+        return {"node_id": self.node_id, "x": self.x, "v": self.v, "mass": self.mass,
+                "fixed": self.fixed, "load": self.load, "load_scale": self.load_scale,
+                "node_body": self.node_body}
+
+    def set_columns(self, elements, nodes):
+        """Take the elements and nodes this rank now holds (any order; kept sorted by
+        global id), and find again the nodes it shares."""
+        order = np.argsort(nodes["node_id"], kind="stable")
+        for name, column in nodes.items():
+            setattr(self, name, np.ascontiguousarray(column[order]))
+        order = np.argsort(elements["element_id"], kind="stable")
+        e = {k: np.ascontiguousarray(col[order]) for k, col in elements.items()}
+        self.element_id, self.body = e["element_id"], e["body"]
+        self.vol0, self.element_mass = e["vol0"], e["element_mass"]
+        self.hexes = np.searchsorted(self.node_id, e["hexes"]).astype(np.int64)
+        self.state = MaterialState(*(e[name] for name in MaterialState._fields))
+        self.hourglass = self.hourglass._replace(resist=e["resist"], energy=e["hg_energy"])
+        self.partners, self.owned = shared_with(self.world, self.node_id)
+        self.force = np.zeros_like(self.x)
+
+    # -- records ------------------------------------------------------------------------
+    def mesh(self):
+        return ElementMesh(self.x, self.v, self.hexes, self.body)
+
+    @property
+    def n_elements(self):
+        return len(self.hexes)
+
+    # -- phases -------------------------------------------------------------------------
+    def stress_and_forces(self, dt):
+        """Element stresses and nodal forces, summed over the ranks sharing a node, then
+        gravity and loads; ``speed`` = h c / L_e, the largest."""
+        self.force[:] = 0.0
+        rate, bad, why = element_forces(self.mesh(), self.state, self.materials,
+                                        self.hourglass, dt, self.force)
+        self.force = sum_shared_rows(self.world, self.force, self.partners)
+        external_forces(self.mass, self.gravity, self.load, self.load_scale,
+                        self.load_vectors, self.force)
+        if self.materials.rigid.any():
+            self.force[self.rigid_nodes()] = 0.0
+        self.speed = rate * self.h
+        if bad >= 0 and self.fault is None:
+            self.note_fault(bad, FAULTS[why])
+
+    def rigid_nodes(self):
+        """The nodes of rigid FEM bodies (material ``rigid``): they move with their
+        initial velocity, as rigid particle bodies do."""
+        return self.materials.rigid[self.node_body]
+
+    def integrate(self, dt):
+        advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
+
+    def move(self, dt):
+        bad = advance_positions(self.x, self.v, dt)
+        if bad >= 0 and self.fault is None:
+            self.fault = (f"node {int(self.node_id[bad])} of FEM body "
+                          f"'{self.names[self.node_body[bad]]}': position is not finite")
+
+    def note_fault(self, e, what):
+        b = int(self.body[e])
+        self.fault = (f"element {int(self.element_id[e]) - self.first_element[b]} of FEM "
+                      f"body '{self.names[b]}': {what}")
+
+    def initial_speed(self):
+        """h c0 / L_e over this rank's elements at the start (c0 the material's wave
+        speed)."""
+        b = np.empty((8, 3))
+        fastest = 0.0
+        speeds = [self.table.initial_wave_speed(i) for i in range(len(self.names))]
+        for e in range(len(self.hexes)):
+            volume, area = element_geometry(self.x[self.hexes[e]], b)
+            fastest = max(fastest, speeds[self.body[e]] * area / volume)
+        return fastest * self.h
+
+    # -- observables (shared nodes counted by their lowest sharer) ----------------------
+    def energies(self):
+        """(kinetic, internal, hourglass) of this rank's nodes and elements."""
+        m, v = self.mass[self.owned], self.v[self.owned]
+        kinetic = 0.5 * float(m @ np.einsum("ij,ij->i", v, v))
+        internal = float(self.element_mass @ self.state.e_int)
+        return kinetic, internal, float(self.hourglass.energy.sum())
+
+    def body_stats(self):
+        """Per FEM body name, over all ranks (collective): mass, counts, centroid,
+        velocity, bbox and energies."""
+        nb = len(self.names)
+        sums, box = np.zeros((nb, 12)), np.full((nb, 6), -np.inf)
+        for b in self.body_indices:
+            nodes, elems = (self.node_body == b) & self.owned, self.body == b
+            m, x, v = self.mass[nodes], self.x[nodes], self.v[nodes]
+            sums[b] = [m.sum(), *(m @ x), *(m @ v), elems.sum(), nodes.sum(),
+                       0.5 * m @ np.einsum("ij,ij->i", v, v),
+                       self.element_mass[elems] @ self.state.e_int[elems],
+                       self.hourglass.energy[elems].sum()]
+            if nodes.any():
+                box[b, :3], box[b, 3:] = -x.min(axis=0), x.max(axis=0)
+        sums, box = self.world.sum(sums), self.world.max(box)
+        return {self.names[b]: body_entry(sums[b], box[b]) for b in self.body_indices}
+
+    def potential(self, gravity):
+        m, x = self.mass[self.owned], self.x[self.owned]
+        return -float(m @ (x @ np.asarray(gravity, np.float64)))
+
+    def load_power(self, load_vectors):
+        loaded = (self.load >= 0) & self.owned
+        if not loaded.any():
+            return 0.0
+        forces = self.load_scale[loaded, None] * load_vectors[self.load[loaded]]
+        return float(np.einsum("ij,ij->", forces, self.v[loaded]))
+
+    def centroids(self):
+        return self.x[self.hexes].mean(axis=1)
+
+    def frame(self):
+        """The columns of an element frame (pmpm.io.elements_h5) in global order, on rank
+        0 (None on the others; collective)."""
+        s = self.state
+        nodes = {"node_x": self.x[self.owned], "node_v": self.v[self.owned]}
+        elements = {"stress": s.stress, "eps_p": s.eps_p, "density": s.rho,
+                    "e_int": s.e_int, "centroid": self.centroids(),
+                    "hourglass_energy": self.hourglass.energy}
+        node_parts = self.world.gather((self.node_id[self.owned], nodes))
+        element_parts = self.world.gather((self.element_id, elements))
+        if not self.world.is_root:
+            return None
+        return {**in_global_order(node_parts), **in_global_order(element_parts)}
+
+
+class WholeMesh:
+    """Every FEM body's mesh, concatenated, with the quantities that need all of it
+    (element volumes, lumped nodal masses): built the same on every rank at set-up."""
+
+    def __init__(self, meshes, body_indices, table):
+        xs, hexes, node_body, elem_body, fixed, offset = [], [], [], [], [], 0
+        for b in body_indices:
+            points, cells, held = meshes[b]
+            xs.append(points)
+            fixed.append(held)
+            hexes.append(cells + offset)
+            node_body.append(np.full(len(points), b, np.int32))
+            elem_body.append(np.full(len(cells), b, np.int32))
+            offset += len(points)
+        self.x = np.ascontiguousarray(np.concatenate(xs), np.float64)
+        self.hexes = np.ascontiguousarray(np.concatenate(hexes), np.int64)
+        self.node_body, self.body = np.concatenate(node_body), np.concatenate(elem_body)
+        self.fixed = np.concatenate(fixed)
+        self.vol0 = np.empty(len(self.hexes))
+        element_volumes(self.x, self.hexes, self.vol0)
+        self.mass = np.empty(len(self.x))
+        lumped_masses(self.hexes, self.vol0, table.params[self.body, layout.RHO0],
+                      self.mass)
+
+    def centroids(self):
+        return self.x[self.hexes].mean(axis=1)
+
+    def nodes_in(self, b, region):
+        lo, hi = np.asarray(region.min), np.asarray(region.max)
+        return np.all((self.x >= lo) & (self.x <= hi), axis=1) & (self.node_body == b)
+
+
+def body_entry(sums, box):
+    """One FEM body's summary entry from its summed moments and bounding box."""
+    mass = sums[0]
+    safe = mass if mass > 0 else 1.0
+    return {"mass": float(mass), "n_particles": 0, "n_elements": int(sums[7]),
+            "n_nodes": int(sums[8]), "centroid": (sums[1:4] / safe).tolist(),
+            "velocity": (sums[4:7] / safe).tolist(), "bbox_min": (-box[:3]).tolist(),
+            "bbox_max": box[3:].tolist(),
+            "energy": {"kinetic": float(sums[9]), "internal": float(sums[10]),
+                       "hourglass": float(sums[11])}}
+
+
+def in_global_order(parts):
+    """Concatenate the ranks' (global ids, {name: rows}) and order the rows by id."""
+    ids = np.concatenate([p[0] for p in parts])
+    order = np.argsort(ids, kind="stable")
+    return {name: np.concatenate([p[1][name] for p in parts])[order] for name in parts[0][1]}
+
+
+def face_constraints(x, grid):
+    """(n, 3) bool: the velocity components held at zero at nodes on a grid face (within
+    1e-9 cells): every component on a fixed face, the normal one on a slip or symmetry
+    face."""
+    fixed = np.zeros(x.shape, bool)
+    tol = 1e-9 * grid.cell
+    for d in range(3):
+        for face, plane in ((f"{'xyz'[d]}-", grid.min[d]), (f"{'xyz'[d]}+", grid.max[d])):
+            on = np.abs(x[:, d] - plane) <= tol
+            kind = grid.boundary[face]
+            if kind == "fixed":
+                fixed[on] = True
+            elif kind in ("slip", "symmetry"):
+                fixed[on, d] = True
+    return fixed
+
+
+def free_face_areas(x, hexes, selected):
+    """Per node, a quarter of the area of each free face (a face of one element only)
+    whose four nodes are all ``selected``."""
+    faces = hexes[:, FACES].reshape(-1, 4)
+    keys = np.sort(faces, axis=1)
+    _, first, counts = np.unique(keys, axis=0, return_index=True, return_counts=True)
+    free = faces[first[counts == 1]]
+    free = free[selected[free].all(axis=1)]
+    p = x[free]
+    normal = np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
+    area = 0.5 * np.linalg.norm(normal, axis=1)
+    out = np.zeros(len(x))
+    np.add.at(out, free.ravel(), np.repeat(area / 4.0, 4))
+    return out
+
+
+#: One FEM body's mesh: ``points`` (n, 3), ``hexes`` (m, 8) and ``fixed`` (n, 3) bool,
+#: the velocity components its ``fem.constraints`` hold at zero.
+FemMesh = namedtuple("FemMesh", "points hexes fixed")
+
+
+def build_meshes(config, case_dir):
+    """{body index: FemMesh} of the case's FEM bodies; SetupError naming the key of a mesh
+    that cannot be built or a constraint that selects no node."""
+    from ..case.hexmesh import InvertedElementError, hex_mesh
+    from ..case.mesh import MeshReadError
+    meshes = {}
+    for b, body in enumerate(config.bodies):
+        if body.method != "fem":
+            continue
+        try:
+            points, hexes = hex_mesh(body.geometry, body.fem["element_size"], case_dir)
+            fixed = constrained(points, body, case_dir, f"bodies[{b}].fem.constraints")
+        except (MeshReadError, InvertedElementError) as error:
+            raise SetupError([f"bodies[{b}].geometry: {error}"]) from None
+        meshes[b] = FemMesh(points, hexes, fixed)
+    refuse_friction_faces(meshes, config.grid)
+    return meshes
+
+
+def refuse_friction_faces(meshes, grid):
+    """SetupError naming ``grid.friction.FACE`` when FEM nodes lie on a slip face with
+    friction: they would take it as frictionless slip (the wall rule of pmpm.kernels.
+    boundary is not applied to FE nodes yet)."""
+    friction = getattr(grid, "friction", None) or {}
+    for d in range(3):
+        for face, plane in ((f"{'xyz'[d]}-", grid.min[d]), (f"{'xyz'[d]}+", grid.max[d])):
+            if friction.get(face, 0.0) > 0 and any(
+                    (np.abs(m.points[:, d] - plane) <= 1e-9 * grid.cell).any()
+                    for m in meshes.values()):
+                raise SetupError([f"grid.friction.{face}: nodes of an FEM body lie on this "
+                                  f"face; FE nodes take no friction yet (only frictionless "
+                                  f"slip): set it to 0 or keep FEM bodies off the face"])
+
+
+def constrained(points, body, case_dir, key):
+    """(n, 3) bool: the components each of ``body``'s constraints holds at zero."""
+    from ..case.hexmesh import read_node_sets
+    fixed = np.zeros(points.shape, bool)
+    items = body.fem.get("constraints") or ()
+    sets = read_node_sets(os.path.join(case_dir, body.geometry["file"])) \
+        if any("node_set" in c for c in items) else {}
+    for j, item in enumerate(items):
+        if "node_set" in item:
+            chosen = np.zeros(len(points), bool)
+            chosen[sets[item["node_set"]]] = True
+        else:
+            lo, hi = np.asarray(item["region"]["min"]), np.asarray(item["region"]["max"])
+            chosen = np.all((points >= lo) & (points <= hi), axis=1)
+        if not chosen.any():
+            raise SetupError([f"{key}[{j}]: selects no node of body '{body.name}'"])
+        for axis in item["fix"]:
+            fixed[chosen, "xyz".index(axis)] = True
+    return fixed
