@@ -2,7 +2,8 @@
 identical work, parallel efficiency, and peak memory per particle, for
 
 - a 1,000,000-particle Johnson-Cook block impact (runs/bench_block.yaml),
-- the Taylor bar at 0.38 mm cells (169,376 particles; first 0.01 ms),
+- the Taylor bar at 0.38 mm cells (169,376 particles; first 0.01 ms), with the hats and
+  with the 27-node gimp and bspline shape functions,
 - the Taylor bar on a tied interface grid (0.38 mm window, 0.76 mm outside; 0.02 ms),
 - the steel ball on the 1 mm plate at 0.66 mm with contact method 2 and without (0.03 ms).
 
@@ -33,6 +34,14 @@ CASES = {
     "block_1M": ("runs/bench_block.yaml", []),
     "taylor_0.38": ("runs/taylor_bar.yaml", ["params.cell=0.38", "time.end=0.01",
                                              "output.frames=1"]),
+    # the same bar with the 27-node shape functions (issue 14): gimp is pmpm's default,
+    # the seed case names the papers' hats
+    "taylor_0.38_gimp": ("runs/taylor_bar.yaml", ["params.cell=0.38", "time.end=0.01",
+                                                  "output.frames=1",
+                                                  "grid.shape_functions=gimp"]),
+    "taylor_0.38_bspline": ("runs/taylor_bar.yaml", ["params.cell=0.38", "time.end=0.01",
+                                                     "output.frames=1",
+                                                     "grid.shape_functions=bspline"]),
     # tied interface grid: 0.38 mm window over the bottom 3.8 mm, 0.76 mm above; the
     # particles entering the window are split as it runs (43 k -> 62 k)
     "taylor_tied_R2": ("runs/taylor_bar.yaml", ["params.ratio=2", "params.refined=3.8",

@@ -27,6 +27,10 @@ DESCRIPTIONS = {
                 "pressure and bulk viscosity (`runs/bench_block.yaml`).",
     "taylor_0.38": "The Taylor bar at 0.38 mm cells, first 0.01 ms: Johnson-Cook, seed 000 "
                    "Table 2 (`runs/taylor_bar.yaml`).",
+    "taylor_0.38_gimp": "The same Taylor bar with uGIMP shape functions (27 nodes, "
+                        "pmpm's default; the seed case names the hats).",
+    "taylor_0.38_bspline": "The same Taylor bar with quadratic B-spline shape functions "
+                           "(27 nodes).",
     "taylor_tied_R2": "The Taylor bar on a tied interface grid, first 0.02 ms: a 0.38 mm "
                       "window over the bottom 3.8 mm, 0.76 mm above; the particles "
                       "entering the window are split as it runs (43 k -> 62 k).",
@@ -42,7 +46,9 @@ SMALL_DESCRIPTIONS = {
                 "Mie-Grueneisen pressure and bulk viscosity.",
 }
 # (with, without, what the ratio is): step-time overheads computed from the medians
-OVERHEADS = [("ball_contact", "ball_no_contact", "Contact (method 2) on the steel ball")]
+OVERHEADS = [("ball_contact", "ball_no_contact", "Contact (method 2) on the steel ball"),
+             ("taylor_0.38_gimp", "taylor_0.38", "gimp shape functions on the Taylor bar"),
+             ("taylor_0.38_bspline", "taylor_0.38", "bspline shape functions on the Taylor bar")]
 
 COLUMNS = ("| ranks | runs | particles | steps | M particle-steps/s per rank | efficiency | "
            "bytes/particle | peak RSS (MB, all ranks) | compile s |")
