@@ -9,6 +9,7 @@ import sys
 import pytest
 
 from clihelp import BAR, ROOT, pmpm, pmpm_lines
+from runhelp import RUNS
 from pmpm.case import CaseError, load_case
 from pmpm.case.yamlio import read_yaml_file
 
@@ -163,3 +164,11 @@ def test_fifty_levels_still_load(tmp_path):
     assert err.value.problems == [
         "junk: unknown key (allowed: title, params, grid, gravity, materials, bodies, loads, "
         "time, output, decomposition, contact)"]
+
+
+def test_a_cell_whose_volume_overflows_is_refused_naming_the_key(tmp_path):
+    """grid.cell = 1e308 (found by the fuzz test): its volume is not a double."""
+    done = pmpm([f"{RUNS}/bench_block.yaml", "--out", tmp_path / "o", "--set",
+                 "grid.cell=1e308"])
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "grid.cell: 1e+308 is too large" in done.stderr

@@ -147,7 +147,16 @@ read_load = Checked(mapping(LOAD), _check_region)
 MAX_GRID_CELLS = 1e18
 
 
+#: The largest cell edge: a cell's volume must be a finite double (pmpm is
+#: unit-agnostic, so no physical bound is implied).
+MAX_CELL = 1e100
+
+
 def _check_grid(grid, path, problems):
+    if valid(grid, "cell") and grid["cell"] > MAX_CELL:
+        problems.add(join(path, "cell"), f"{grid['cell']:g} is too large: a cell's volume "
+                     f"must be a finite number (at most {MAX_CELL:g})")
+        grid["cell"] = INVALID
     if check_min_below_max(grid, path, problems) and valid(grid, "cell"):
         cells = [(b - a) / grid["cell"] for a, b in zip(grid["min"], grid["max"])]
         if not all(math.isfinite(n) for n in cells) or math.prod(cells) > MAX_GRID_CELLS:
