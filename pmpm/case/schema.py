@@ -206,7 +206,7 @@ GRID = {
             "in runs/ use them, as the papers did). The 27-node shapes have continuous "
             "gradients, so particles crossing cells keep the energy (USF, cfl 0.5: "
             "vibrating bar +0.4 % against +69 % with hats; a shock in copper +1.2 % "
-            "against +18 %), at about 2.5 times the hats' cost per particle. gimp is the "
+            "against +18 %), at about 4 times the hats' cost per particle. gimp is the "
             "default because it also holds the bar's period across tied windows and the "
             "shock's plateau to 2 %, where bspline is 0.9 % and 3.7 % off; "
             "docs/validation/vibrating_bar.md"),
