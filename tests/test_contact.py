@@ -222,3 +222,32 @@ def test_bad_contact_input_names_the_key(tmp_path, contact, message):
     with pytest.raises(CaseError) as info:
         load_case(path)
     assert any(line.startswith(message) for line in info.value.problems), info.value.problems
+
+
+def _incline_sets(mu, angle_deg):
+    a = np.radians(angle_deg)
+    return [f"params.mu={mu}", "params.v0=0", "time.end=0.25",
+            f"gravity=[{10 * np.sin(a)}, 0, {-10 * np.cos(a)}]",
+            "contact.pairs=[{bodies: [plate, block], normal: plate}]"]
+
+
+@pytest.mark.parametrize("mu", [0.1, 0.3])
+def test_a_block_slides_down_an_inclined_plate_at_g_sin_minus_mu_g_cos(tmp_path, mu):
+    """Issue 15: the plate under tilted gravity (30 deg), contact method 2 with the plate's
+    normal. Measured +0.02 % (mu 0.1) and +0.09 % (mu 0.3); the issue asks 2 %."""
+    run_pmpm(SLIDING, tmp_path, sets=_incline_sets(mu, 30))
+    rows = history(tmp_path)
+    t = np.array([r["time"] for r in rows])
+    v = np.array([r["block.vx"] for r in rows])
+    exact = 10 * (np.sin(np.radians(30)) - mu * np.cos(np.radians(30)))
+    assert np.polyfit(t, v, 1)[0] == pytest.approx(exact, rel=0.02)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 15: with mu 0.7 > tan 30 deg the block creeps "
+                   "3 mm in 0.15 s (1.5 mm with time.pic 0.1, 0.04 mm with contact.release "
+                   "0 as well); not yet explained (the grid-face wall friction creeps the "
+                   "same way, and there the block's ringing lifts it node by node)")
+def test_a_block_on_an_inclined_plate_with_mu_above_tan_a_does_not_creep(tmp_path):
+    run_pmpm(SLIDING, tmp_path, sets=_incline_sets(0.7, 30))
+    rows = [r for r in history(tmp_path) if r["time"] > 0.1]
+    assert np.ptp([r["block.x"] for r in rows]) < 1e-6        # m: 1 um
