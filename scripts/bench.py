@@ -5,7 +5,9 @@ identical work, parallel efficiency, and peak memory per particle, for
 - the Taylor bar at 0.38 mm cells (169,376 particles; first 0.01 ms), with the hats and
   with the 27-node gimp and bspline shape functions,
 - the Taylor bar on a tied interface grid (0.38 mm window, 0.76 mm outside; 0.02 ms),
-- the steel ball on the 1 mm plate at 0.66 mm with contact method 2 and without (0.03 ms).
+- the steel ball on the 1 mm plate at 0.66 mm with contact method 2 and without (0.03 ms),
+- the Johnson-Cook block as 216,000 FEM hexahedra (runs/fem_block.yaml; element-steps,
+  reported in the particle-steps column).
 
 Writes results/bench/bench.{json,md}; bench.json also records the commit, date, command
 and machine. The machine this was written for has 2 cores: more ranks than cores need
@@ -46,6 +48,9 @@ CASES = {
     # particles entering the window are split as it runs (43 k -> 62 k)
     "taylor_tied_R2": ("runs/taylor_bar.yaml", ["params.ratio=2", "params.refined=3.8",
                                                 "time.end=0.02", "output.frames=1"]),
+    # FEM bodies (issue 16): the Johnson-Cook block as 60^3 = 216,000 hexahedra of 1 mm
+    "fem_block_216k": ("runs/fem_block.yaml", ["params.edge=60", "params.element=1.0",
+                                               "output.frames=1"]),
     # contact overhead (issue 3): the same particles with and without method 2
     "ball_contact": ("runs/steel_ball_plate.yaml", ["params.method=2", "time.end=0.03",
                                                     "output.frames=1"]),
@@ -109,9 +114,13 @@ def provenance():
 def measure(name, case, sets, ranks, out):
     s = run_case(case, out, ranks, sets)
     memory = s.get("memory", {})
-    return {"case": name, "ranks": ranks, "particles": s["n_particles"]["initial"],
+    elements = s.get("n_elements", 0) if not s["n_particles"]["initial"] else 0
+    per_rank = (s["element_steps_per_s"] / ranks if elements
+                else s["particle_steps_per_s_per_rank"])
+    return {"case": name, "ranks": ranks,
+            "particles": elements or s["n_particles"]["initial"],
             "steps": s["n_steps"], "step_wall_s": s["step_wall_s"], "compile_s": s["compile_s"],
-            "per_rank": s["particle_steps_per_s_per_rank"],
+            "per_rank": per_rank,
             "bytes_per_particle": memory.get("bytes_per_particle"),
             "peak_rss_mb": memory.get("peak_rss_mb_total")}
 
