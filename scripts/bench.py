@@ -121,7 +121,10 @@ def measure(name, case, sets, ranks, out):
             "particles": elements or s["n_particles"]["initial"],
             "steps": s["n_steps"], "step_wall_s": s["step_wall_s"], "compile_s": s["compile_s"],
             "per_rank": per_rank,
-            "bytes_per_particle": memory.get("bytes_per_particle"),
+            # summary.json divides the memory added by max(particles, 1): per element here
+            "bytes_per_particle": (memory["bytes_per_particle"] / elements
+                                   if elements and memory.get("bytes_per_particle")
+                                   else memory.get("bytes_per_particle")),
             "peak_rss_mb": memory.get("peak_rss_mb_total")}
 
 
