@@ -22,6 +22,7 @@ class LevelState:
         self.shape, self.half_width = shape, half_width
         self.work = Workspace()
         self.ties = None
+        self.inner = None
         #: the TieSets whose slaves are nodes of this level (set by the tied interface)
         self.slave_ties = []
         self.block = None
