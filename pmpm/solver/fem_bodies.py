@@ -150,6 +150,8 @@ class FemBodies:
             temp[elems] = initial_field(t_room if body.temperature is None
                                         else body.temperature, centroids[elems],
                                         f"bodies[{b}].temperature")
+        self.v[self.fixed] = 0.0                   # the constraints hold from the start
+        self.hold_at_faces(None)
         self.state = MaterialState(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
                                    rho0.copy(), np.zeros(m), np.zeros(m), temp, np.zeros(m))
         self.hourglass = Hourglass(*self.hourglass_forms(config), np.zeros((m, 12)),
