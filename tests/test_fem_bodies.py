@@ -282,7 +282,10 @@ def test_two_ranks_give_the_one_rank_answer(tmp_path):
             last = f["frames"][sorted(f["frames"])[-1]]
             frames.append({k: last[k][:] for k in ("node_x", "node_v", "stress")})
         with open(out / "summary.json") as f:
-            assert json.load(f)["n_elements"] == 512
+            summary = json.load(f)
+        assert summary["n_elements"] == 512
+        assert len(summary["elements_per_rank"]) == ranks
+        assert min(summary["elements_per_rank"]) > 0   # the slab plane cuts the mesh
     one, two = frames
     assert np.abs(one["node_x"] - two["node_x"]).max() < 1e-10 * 4.0
     assert np.abs(one["node_v"] - two["node_v"]).max() < 1e-10 * 190.0
@@ -380,6 +383,9 @@ def test_restart_ends_where_the_uninterrupted_run_does(tmp_path, ranks):
     assert pmpm([case, "--out", part, *sets, "--set", "time.end=0.0156"]).returncode == 0
     done = pmpm([case, "--out", part, "--restart", *sets], ranks=ranks)
     assert done.returncode == 0, done.stderr
+    with open(part / "summary.json") as f:
+        per_rank = json.load(f)["elements_per_rank"]
+    assert len(per_rank) == ranks and min(per_rank) > 0  # 2 ranks: both hold elements
     (n_full, one), (n_part, two) = last_element_frame(full), last_element_frame(part)
     assert n_full == n_part == 4
     for key in one:
