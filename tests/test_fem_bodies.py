@@ -4,7 +4,6 @@ a mesh without hexahedra, an inverted element, a missing file, grid contact with
 body; the partition over ranks, 1 rank against 2, and --restart."""
 import json
 import os
-from types import SimpleNamespace
 
 import h5py
 import meshio
@@ -15,7 +14,7 @@ import yaml
 from clihelp import pmpm, pmpm_lines, read_history
 from pmpm.case import CaseError, load_case
 from pmpm.case.hexmesh import box_mesh, centre_jacobians, hex_mesh
-from pmpm.solver.fem_partition import partition_mesh, shared_with
+from pmpm.solver.fem_partition import bounding_box, overlapping, partition_mesh, sharers
 
 G = -9.81e-3 * 1000.0        # mm/ms^2, strong so that a few steps move visibly
 
@@ -259,12 +258,30 @@ def test_partition_owns_each_element_once_and_shares_nodes_symmetrically():
         for other, local in part.partners:
             back = dict(parts[other].partners)[r]
             assert (part.nodes[local] == parts[other].nodes[back]).all()
+    used = np.zeros((3, len(points)), bool)      # the rank-by-node table, as reference
+    for r in range(3):
+        used[r, hexes[owner == r].ravel()] = True
+    for r, part in enumerate(parts):
+        assert (part.nodes == np.flatnonzero(used[r])).all()
+        assert (part.owned == (np.argmax(used[:, part.nodes], axis=0) == r)).all()
+        expected = [q for q in range(3) if q != r and (used[r] & used[q]).any()]
+        assert [q for q, _ in part.partners] == expected
+        for q, local in part.partners:
+            assert (part.nodes[local] == np.flatnonzero(used[r] & used[q])).all()
+    boxes = [bounding_box(points[p.nodes]) for p in parts]
     for r, part in enumerate(parts):        # after a migration, from the ranks' node ids
-        world = SimpleNamespace(rank=r, allgather=lambda _: [p.nodes for p in parts])
-        partners, owned = shared_with(world, part.nodes)
+        near = overlapping(boxes, r, 0.0)
+        partners, owned = sharers(part.nodes, r, {q: parts[q].nodes for q in near})
         assert [q for q, _ in partners] == [q for q, _ in part.partners]
         assert all((a == b).all() for (_, a), (_, b) in zip(partners, part.partners))
         assert (owned == part.owned).all()
+
+
+def test_node_ids_go_only_to_ranks_whose_nodes_box_meets_this_ones():
+    boxes = [bounding_box(np.array([[x, 0, 0], [x + 1, 1, 1]], float)) for x in (0, 1, 3)]
+    boxes.append(bounding_box(np.zeros((0, 3))))             # a rank without nodes
+    assert [overlapping(boxes, r, 0.0) for r in range(4)] == [[1], [0], [], []]
+    assert overlapping(boxes, 1, 0.5) == [0, 2]
 
 
 def test_two_ranks_give_the_one_rank_answer(tmp_path):

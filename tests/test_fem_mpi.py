@@ -44,8 +44,8 @@ def test_shared_node_sums_are_the_global_sums_and_equal_on_every_sharer():
 @pytest.mark.mpi(min_size=2)
 def test_sharers_found_from_node_ids_match_the_partition_and_objects_arrive():
     world = comm_world()
-    _, _, part = random_partition(world, 3)
-    partners, owned = shared_with(world, part.nodes)
+    points, _, part = random_partition(world, 3)
+    partners, owned = shared_with(world, part.nodes, points[part.nodes], 0.0)
     assert [r for r, _ in partners] == [r for r, _ in part.partners]
     assert all((a == b).all() for (_, a), (_, b) in zip(partners, part.partners))
     assert (owned == part.owned).all()

@@ -246,7 +246,8 @@ class FemBodies:
         self.hexes = np.searchsorted(self.node_id, e["hexes"]).astype(np.int64)
         self.state = MaterialState(*(e[name] for name in MaterialState._fields))
         self.hourglass = self.hourglass._replace(resist=e["resist"], energy=e["hg_energy"])
-        self.partners, self.owned = shared_with(self.world, self.node_id)
+        self.partners, self.owned = shared_with(self.world, self.node_id, self.x,
+                                                 1e-6 * self.h)
         self.force = np.zeros_like(self.x)
 
     # -- records ------------------------------------------------------------------------
