@@ -148,6 +148,8 @@ def test_a_rigid_fem_body_keeps_its_velocity(tmp_path):
     ({"type": "mesh", "file": "inverted.vtu"}, "bodies[0].geometry.file",
      "element 3 (of 1 such) is inverted"),
     ({"type": "mesh", "file": "missing.vtu"}, "bodies[0].geometry.file", "no such file"),
+    ({"type": "mesh", "file": "mixed.vtu"}, "bodies[0].geometry.file",
+     "the mesh holds 1 tetra, 1 wedge cells besides its hexahedra"),
     ({"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}, "bodies[0].fem.element_size",
      "elements, more than 1e+08"),
 ])
@@ -155,6 +157,7 @@ def test_bad_fem_bodies_are_refused_with_one_line(tmp_path, geometry, key, words
     write_hex_mesh(tmp_path / "inverted.vtu", invert=True)
     tet = meshio.Mesh(np.eye(4, 3), [("tetra", np.array([[0, 1, 2, 3]]))])
     meshio.write(str(tmp_path / "tets.vtu"), tet)
+    write_mixed_mesh(tmp_path / "mixed.vtu")
     tree = case_tree(geometry)
     if key.endswith("element_size"):
         tree["bodies"][0]["fem"]["element_size"] = 1e-6
@@ -162,6 +165,28 @@ def test_bad_fem_bodies_are_refused_with_one_line(tmp_path, geometry, key, words
         load_case(write_case(tmp_path, tree))
     [line] = error.value.problems
     assert line.startswith(key + ":") and words in line, line
+
+
+def write_mixed_mesh(path):
+    """The 2 x 2 x 2 block with a tetrahedron and a wedge on top, and a quad face (a
+    surface cell, which is ignored)."""
+    points, hexes = box_mesh([0, 0, 0], [2, 2, 2], [2, 2, 2])
+    top = np.flatnonzero(points[:, 2] == 2)[:4]
+    points = np.vstack([points, [[0, 0, 3], [1, 0, 3]]])
+    n = len(points)
+    meshio.write(str(path), meshio.Mesh(points, [
+        ("hexahedron", hexes), ("tetra", np.array([[top[0], top[1], top[3], n - 2]])),
+        ("wedge", np.array([[top[0], top[1], top[2], n - 2, n - 1, n - 1]])),
+        ("quad", hexes[:1, :4])]))
+
+
+def test_a_mesh_of_hexahedra_and_surface_cells_is_taken(tmp_path):
+    """Surface cells (a quad face) beside the hexahedra are ignored, not refused."""
+    points, hexes = box_mesh([0, 0, 0], [2, 2, 2], [2, 2, 2])
+    meshio.write(str(tmp_path / "faces.vtu"),
+                 meshio.Mesh(points, [("hexahedron", hexes), ("quad", hexes[:, :4])]))
+    case = load_case(write_case(tmp_path, case_tree({"type": "mesh", "file": "faces.vtu"})))
+    assert case["bodies"][0]["method"] == "fem"
 
 
 def write_inp_with_base_set(path):

@@ -488,7 +488,7 @@ FemMesh = namedtuple("FemMesh", "points hexes fixed")
 def build_meshes(config, case_dir):
     """{body index: FemMesh} of the case's FEM bodies; SetupError naming the key of a mesh
     that cannot be built or a constraint that selects no node."""
-    from ..case.hexmesh import InvertedElementError, hex_mesh
+    from ..case.hexmesh import InvertedElementError, MixedMeshError, hex_mesh
     from ..case.mesh import MeshReadError
     meshes = {}
     for b, body in enumerate(config.bodies):
@@ -497,7 +497,7 @@ def build_meshes(config, case_dir):
         try:
             points, hexes = hex_mesh(body.geometry, body.fem["element_size"], case_dir)
             fixed = constrained(points, body, case_dir, f"bodies[{b}].fem.constraints")
-        except (MeshReadError, InvertedElementError) as error:
+        except (MeshReadError, InvertedElementError, MixedMeshError) as error:
             raise SetupError([f"bodies[{b}].geometry: {error}"]) from None
         meshes[b] = FemMesh(points, hexes, fixed)
     refuse_friction_faces(meshes, config.grid)
