@@ -193,19 +193,34 @@ def _set_up(build, *args):
 
 def read_checkpoint(world, path, config):
     """Scalars, this rank's share of the particles of the checkpoint at ``path`` and,
-    when the case has FEM bodies, its elements and nodes whole (collective)."""
-    from .io import load_checkpoint, load_group
+    when the case has FEM bodies, its elements and nodes whole (collective). A failure
+    on any rank stops every rank with the lowest failing rank's line (a rank that alone
+    stopped would leave the others waiting in the set-up's collectives)."""
+    from .io import load_checkpoint
+    problem = result = None
     try:
         scalars, columns = load_checkpoint(path, world.raw)
-        groups = {}
-        if any(body.method == "fem" for body in config.bodies):
-            groups = {name: load_group(path, name) for name in ("elements", "nodes")}
+        groups, problem = read_fem_groups(path, config)
+        result = scalars, columns, groups
     except (OSError, KeyError, ValueError) as err:
-        raise InputError([f"--restart: cannot read checkpoint '{path}': {err}"]) from None
+        problem = f"--restart: cannot read checkpoint '{path}': {err}"
+    problem = world.first_message(problem)
+    if problem:
+        raise InputError([problem])
+    return result
+
+
+def read_fem_groups(path, config):
+    """({name: rows} of the elements and nodes of the checkpoint, when the case has FEM
+    bodies, or {}; the problem line when it holds none). Not collective."""
+    from .io import load_group
+    if not any(body.method == "fem" for body in config.bodies):
+        return {}, None
+    groups = {name: load_group(path, name) for name in ("elements", "nodes")}
     if any(group is None for group in groups.values()):
-        raise InputError([f"--restart: checkpoint '{path}' holds no FEM bodies, which the "
-                          f"case has"])
-    return scalars, columns, groups
+        return groups, (f"--restart: checkpoint '{path}' holds no FEM bodies, which the "
+                        f"case has")
+    return groups, None
 
 
 def _stem(path):

@@ -4,7 +4,6 @@ a mesh without hexahedra, an inverted element, a missing file, grid contact with
 body; the partition over ranks, 1 rank against 2, and --restart."""
 import json
 import os
-from types import SimpleNamespace
 
 import h5py
 import meshio
@@ -15,7 +14,7 @@ import yaml
 from clihelp import pmpm, pmpm_lines, read_history
 from pmpm.case import CaseError, load_case
 from pmpm.case.hexmesh import box_mesh, centre_jacobians, hex_mesh
-from pmpm.solver.fem_partition import partition_mesh, shared_with
+from pmpm.solver.fem_partition import bounding_box, overlapping, partition_mesh, sharers
 
 G = -9.81e-3 * 1000.0        # mm/ms^2, strong so that a few steps move visibly
 
@@ -149,6 +148,8 @@ def test_a_rigid_fem_body_keeps_its_velocity(tmp_path):
     ({"type": "mesh", "file": "inverted.vtu"}, "bodies[0].geometry.file",
      "element 3 (of 1 such) is inverted"),
     ({"type": "mesh", "file": "missing.vtu"}, "bodies[0].geometry.file", "no such file"),
+    ({"type": "mesh", "file": "mixed.vtu"}, "bodies[0].geometry.file",
+     "the mesh holds 1 tetra, 1 wedge cells besides its hexahedra"),
     ({"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}, "bodies[0].fem.element_size",
      "elements, more than 1e+08"),
 ])
@@ -156,6 +157,7 @@ def test_bad_fem_bodies_are_refused_with_one_line(tmp_path, geometry, key, words
     write_hex_mesh(tmp_path / "inverted.vtu", invert=True)
     tet = meshio.Mesh(np.eye(4, 3), [("tetra", np.array([[0, 1, 2, 3]]))])
     meshio.write(str(tmp_path / "tets.vtu"), tet)
+    write_mixed_mesh(tmp_path / "mixed.vtu")
     tree = case_tree(geometry)
     if key.endswith("element_size"):
         tree["bodies"][0]["fem"]["element_size"] = 1e-6
@@ -163,6 +165,28 @@ def test_bad_fem_bodies_are_refused_with_one_line(tmp_path, geometry, key, words
         load_case(write_case(tmp_path, tree))
     [line] = error.value.problems
     assert line.startswith(key + ":") and words in line, line
+
+
+def write_mixed_mesh(path):
+    """The 2 x 2 x 2 block with a tetrahedron and a wedge on top, and a quad face (a
+    surface cell, which is ignored)."""
+    points, hexes = box_mesh([0, 0, 0], [2, 2, 2], [2, 2, 2])
+    top = np.flatnonzero(points[:, 2] == 2)[:4]
+    points = np.vstack([points, [[0, 0, 3], [1, 0, 3]]])
+    n = len(points)
+    meshio.write(str(path), meshio.Mesh(points, [
+        ("hexahedron", hexes), ("tetra", np.array([[top[0], top[1], top[3], n - 2]])),
+        ("wedge", np.array([[top[0], top[1], top[2], n - 2, n - 1, n - 1]])),
+        ("quad", hexes[:1, :4])]))
+
+
+def test_a_mesh_of_hexahedra_and_surface_cells_is_taken(tmp_path):
+    """Surface cells (a quad face) beside the hexahedra are ignored, not refused."""
+    points, hexes = box_mesh([0, 0, 0], [2, 2, 2], [2, 2, 2])
+    meshio.write(str(tmp_path / "faces.vtu"),
+                 meshio.Mesh(points, [("hexahedron", hexes), ("quad", hexes[:, :4])]))
+    case = load_case(write_case(tmp_path, case_tree({"type": "mesh", "file": "faces.vtu"})))
+    assert case["bodies"][0]["method"] == "fem"
 
 
 def write_inp_with_base_set(path):
@@ -259,12 +283,30 @@ def test_partition_owns_each_element_once_and_shares_nodes_symmetrically():
         for other, local in part.partners:
             back = dict(parts[other].partners)[r]
             assert (part.nodes[local] == parts[other].nodes[back]).all()
+    used = np.zeros((3, len(points)), bool)      # the rank-by-node table, as reference
+    for r in range(3):
+        used[r, hexes[owner == r].ravel()] = True
+    for r, part in enumerate(parts):
+        assert (part.nodes == np.flatnonzero(used[r])).all()
+        assert (part.owned == (np.argmax(used[:, part.nodes], axis=0) == r)).all()
+        expected = [q for q in range(3) if q != r and (used[r] & used[q]).any()]
+        assert [q for q, _ in part.partners] == expected
+        for q, local in part.partners:
+            assert (part.nodes[local] == np.flatnonzero(used[r] & used[q])).all()
+    boxes = [bounding_box(points[p.nodes]) for p in parts]
     for r, part in enumerate(parts):        # after a migration, from the ranks' node ids
-        world = SimpleNamespace(rank=r, allgather=lambda _: [p.nodes for p in parts])
-        partners, owned = shared_with(world, part.nodes)
+        near = overlapping(boxes, r, 0.0)
+        partners, owned = sharers(part.nodes, r, {q: parts[q].nodes for q in near})
         assert [q for q, _ in partners] == [q for q, _ in part.partners]
         assert all((a == b).all() for (_, a), (_, b) in zip(partners, part.partners))
         assert (owned == part.owned).all()
+
+
+def test_node_ids_go_only_to_ranks_whose_nodes_box_meets_this_ones():
+    boxes = [bounding_box(np.array([[x, 0, 0], [x + 1, 1, 1]], float)) for x in (0, 1, 3)]
+    boxes.append(bounding_box(np.zeros((0, 3))))             # a rank without nodes
+    assert [overlapping(boxes, r, 0.0) for r in range(4)] == [[1], [0], [], []]
+    assert overlapping(boxes, 1, 0.5) == [0, 2]
 
 
 def test_two_ranks_give_the_one_rank_answer(tmp_path):
@@ -282,7 +324,10 @@ def test_two_ranks_give_the_one_rank_answer(tmp_path):
             last = f["frames"][sorted(f["frames"])[-1]]
             frames.append({k: last[k][:] for k in ("node_x", "node_v", "stress")})
         with open(out / "summary.json") as f:
-            assert json.load(f)["n_elements"] == 512
+            summary = json.load(f)
+        assert summary["n_elements"] == 512
+        assert len(summary["elements_per_rank"]) == ranks
+        assert min(summary["elements_per_rank"]) > 0   # the slab plane cuts the mesh
     one, two = frames
     assert np.abs(one["node_x"] - two["node_x"]).max() < 1e-10 * 4.0
     assert np.abs(one["node_v"] - two["node_v"]).max() < 1e-10 * 190.0
@@ -380,6 +425,9 @@ def test_restart_ends_where_the_uninterrupted_run_does(tmp_path, ranks):
     assert pmpm([case, "--out", part, *sets, "--set", "time.end=0.0156"]).returncode == 0
     done = pmpm([case, "--out", part, "--restart", *sets], ranks=ranks)
     assert done.returncode == 0, done.stderr
+    with open(part / "summary.json") as f:
+        per_rank = json.load(f)["elements_per_rank"]
+    assert len(per_rank) == ranks and min(per_rank) > 0  # 2 ranks: both hold elements
     (n_full, one), (n_part, two) = last_element_frame(full), last_element_frame(part)
     assert n_full == n_part == 4
     for key in one:
@@ -387,3 +435,71 @@ def test_restart_ends_where_the_uninterrupted_run_does(tmp_path, ranks):
             assert (one[key] == two[key]).all(), key
         else:
             assert np.abs(one[key] - two[key]).max() < 1e-10 * np.abs(one[key]).max()
+
+
+def thrown_block(vx, x_face="slip"):
+    """A 2 x 2 x 2 block 4 mm from the face x+ (and 4 mm from x-), no gravity, thrown
+    along x at ``vx``."""
+    tree = case_tree({"type": "box", "min": [-6, -1, -1], "max": [-4, 1, 1]},
+                     gravity=[0, 0, 0], time={"end": 0.02})
+    tree["grid"].update({"min": [-10, -4, -4], "max": [0, 4, 4],
+                         "boundary": {"x+": x_face}})
+    tree["bodies"][0]["velocity"] = [vx, 0, 0]
+    return tree
+
+
+def test_a_block_thrown_at_a_slip_face_stops_there(tmp_path):
+    """Not on the face at t = 0, it reaches it after 8 us: its nodes land on the face
+    and stay on or inside it (before, the face held only the nodes on it at set-up, and
+    the block flew through); it is pushed back by its own rebound. 2 ranks (both holding
+    elements) end as 1 does, to round-off."""
+    tree = thrown_block(500.0)
+    tree["output"] = {"times": [0.004, 0.008, 0.012, 0.016]}
+    case, frames = write_case(tmp_path, tree), []
+    for ranks in (1, 2):
+        out = tmp_path / f"r{ranks}"
+        done = pmpm([case, "--out", out, "--quiet"], ranks=ranks)
+        assert done.returncode == 0, done.stderr
+        with open(out / "summary.json") as f:
+            per_rank = json.load(f)["elements_per_rank"]
+        assert len(per_rank) == ranks and min(per_rank) > 0
+        with h5py.File(out / "elements.h5") as f:
+            frames.append([f["frames"][name]["node_x"][:] for name in sorted(f["frames"])])
+    xs = [x[:, 0] for x in frames[0]]
+    assert max(x.max() for x in xs) <= 1e-9
+    assert any(x.max() > -1e-9 for x in xs)               # it did reach the face
+    assert max(np.abs(a - b).max() for a, b in zip(*frames)) < 1e-10 * 10.0
+    header, rows = read_history(tmp_path / "r1")
+    assert rows[-1, header.index("block.vx")] < 0.5 * 500.0
+
+
+def test_a_block_thrown_out_through_a_free_face_is_a_fault(tmp_path):
+    done = pmpm([write_case(tmp_path, thrown_block(-500.0)), "--out", tmp_path / "out"])
+    assert done.returncode == 1
+    assert "of FEM body 'block' has left the grid box through the free face x-" \
+        in done.stderr, done.stderr
+
+
+def test_constrained_components_start_at_rest(tmp_path):
+    """Initial velocity [5, 5, -3] on a block standing on the slip face z- with its
+    nodes at x = 0 held in x: at t = 0 those nodes have vx = 0 and the base nodes
+    vz = 0, and the kinetic energy of the first history row counts only what is free."""
+    tree = case_tree({"type": "box", "min": [0, 0, -10], "max": [2, 2, -8]},
+                     gravity=[0, 0, 0])
+    tree["grid"]["boundary"] = {"z-": "slip"}
+    tree["bodies"][0]["velocity"] = [5, 5, -3]
+    tree["bodies"][0]["fem"]["constraints"] = [
+        {"region": {"min": [-0.1, -1, -11], "max": [0.1, 3, -7]}, "fix": ["x"]}]
+    out = tmp_path / "out"
+    done = pmpm([write_case(tmp_path, tree), "--out", out, "--quiet"])
+    assert done.returncode == 0, done.stderr
+    with h5py.File(out / "elements.h5") as f:
+        first = f["frames"][sorted(f["frames"])[0]]
+        x, v = first["node_x"][:], first["node_v"][:]
+    held, base = x[:, 0] == 0, x[:, 2] == -10
+    assert (v[held, 0] == 0).all() and (v[~held, 0] == 5).all()
+    assert (v[base, 2] == 0).all() and (v[~base, 2] == -3).all()
+    header, rows = read_history(out)
+    held_share = 0.25                   # of the lumped mass: a face of nodes of the block
+    kinetic = 0.5 * 8 * 7.8e-3 * (25 + 25 + 9 - held_share * 25 - held_share * 9)
+    assert rows[0, header.index("kinetic")] == pytest.approx(kinetic, rel=1e-12)

@@ -44,10 +44,34 @@ def test_shared_node_sums_are_the_global_sums_and_equal_on_every_sharer():
 @pytest.mark.mpi(min_size=2)
 def test_sharers_found_from_node_ids_match_the_partition_and_objects_arrive():
     world = comm_world()
-    _, _, part = random_partition(world, 3)
-    partners, owned = shared_with(world, part.nodes)
+    points, _, part = random_partition(world, 3)
+    partners, owned = shared_with(world, part.nodes, points[part.nodes], 0.0)
     assert [r for r, _ in partners] == [r for r, _ in part.partners]
     assert all((a == b).all() for (_, a), (_, b) in zip(partners, part.partners))
     assert (owned == part.owned).all()
     received = exchange_objects(world, [(world.rank, r) for r in range(world.size)])
     assert received == [(r, world.rank) for r in range(world.size)]
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_checkpoint_group_failing_on_one_rank_stops_every_rank(monkeypatch):
+    """load_group raising on the last rank only: every rank raises InputError with its
+    line (before, the others went on into the set-up's collectives and hung)."""
+    from types import SimpleNamespace
+
+    import pmpm.io
+    from pmpm.app import InputError, read_checkpoint
+    world = comm_world()
+
+    def load_group(path, name):
+        if world.rank == world.size - 1:
+            raise OSError("unreadable on this rank")
+        return {"x": np.zeros(1)}
+
+    monkeypatch.setattr(pmpm.io, "load_checkpoint", lambda path, comm: ({}, {}))
+    monkeypatch.setattr(pmpm.io, "load_group", load_group)
+    config = SimpleNamespace(bodies=[SimpleNamespace(method="fem")])
+    with pytest.raises(InputError) as error:
+        read_checkpoint(world, "ck.h5", config)
+    assert error.value.problems == ["--restart: cannot read checkpoint 'ck.h5': "
+                                    "unreadable on this rank"]

@@ -17,9 +17,11 @@ CASE = os.path.join(RUNS, "fem_wave_bar.yaml")
 C = np.sqrt(1.0e5 / 5.0e-3)          # mm/ms
 LOAD = -2.5 / 36.0                   # MPa, compressive
 TIMES = (0.0076, 0.0156, 0.0416)
-#: RMS error / load stress of the MPM bar (docs/validation/wave_bar.md) at 1 mm cells:
-#: 0.108, 0.126, 0.145. The FEM bar must do at least as well at the same size.
-MPM_AT_1MM = {0.0076: 0.108, 0.0156: 0.126, 0.0416: 0.145}
+#: RMS error / load stress of the MPM bar (docs/validation/wave_bar.md and
+#: fem_wave_bar.md) at 1 and 0.5 mm cells. The FEM bar must do at least as well at the
+#: same size (issue 16); running the MPM bars here would double the test's time.
+MPM_ERROR = {1.0: {0.0076: 0.108, 0.0156: 0.126, 0.0416: 0.145},
+             0.5: {0.0076: 0.0860, 0.0156: 0.0977, 0.0416: 0.1155}}
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +44,7 @@ def test_error_falls_with_element_size_and_beats_the_mpm_bar(runs):
     coarse, fine = errors(runs[1.0]), errors(runs[0.5])
     for t in TIMES:
         assert fine[t] < coarse[t]
-        assert coarse[t] <= MPM_AT_1MM[t]
+        assert coarse[t] <= MPM_ERROR[1.0][t] and fine[t] <= MPM_ERROR[0.5][t]
 
 
 def test_plateaus_match_the_load_and_its_reflection(runs):

@@ -9,7 +9,8 @@ import numpy as np
 from .errors import join, unknown_name
 from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, list_of,
                      mapping, number, text, valid, vector)
-from .hexmesh import InvertedElementError, box_counts, hex_mesh, read_node_sets
+from .hexmesh import (InvertedElementError, MixedMeshError, box_counts, hex_mesh,
+                      read_node_sets)
 from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
@@ -106,7 +107,7 @@ def check_fem_geometry(body, case_dir, check_geometry, path, problems):
         line = f"{key}: cannot read {geometry['file']!r}: {error}"
         if line not in problems.lines:       # the particle fill's check may have said it
             problems.add(key, line[len(key) + 2:])
-    except InvertedElementError as error:
+    except (InvertedElementError, MixedMeshError) as error:
         problems.add(key, str(error))
 
 

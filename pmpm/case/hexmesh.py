@@ -20,6 +20,14 @@ class InvertedElementError(ValueError):
     """An element whose Jacobian at its centre is not positive."""
 
 
+class MixedMeshError(ValueError):
+    """A mesh file with volume cells other than hexahedra besides its hexahedra."""
+
+
+#: volume cells an FEM body cannot take (surface and line cells are ignored)
+OTHER_VOLUMES = ("tetra", "wedge", "pyramid", "polyhedron")
+
+
 def box_counts(lo, hi, element_size):
     """Elements per direction of a box: round(edge / element_size), at least 1."""
     edges = np.asarray(hi, float) - np.asarray(lo, float)
@@ -56,9 +64,23 @@ def read_hexes(path, scale=1.0, translate=(0.0, 0.0, 0.0)):
     if not blocks:
         found = ", ".join(sorted({block.type for block in mesh.cells})) or "none"
         raise MeshReadError(f"no hexahedron cells, which an FEM body needs (found: {found})")
+    refuse_other_volumes(mesh.cells)
     hexes = np.concatenate(blocks).astype(np.int64)
     used, hexes = np.unique(hexes, return_inverse=True)
     return points[used] * scale + np.asarray(translate, float), hexes.reshape(-1, 8)
+
+
+def refuse_other_volumes(cells):
+    """MixedMeshError counting the tetrahedra, wedges, pyramids and polyhedra beside the
+    hexahedra (they would be left out of the body, silently changing its shape)."""
+    counts = {}
+    for block in cells:
+        if block.type.startswith(OTHER_VOLUMES):
+            counts[block.type] = counts.get(block.type, 0) + len(block.data)
+    if counts:
+        found = ", ".join(f"{n} {kind}" for kind, n in sorted(counts.items()))
+        raise MixedMeshError(f"the mesh holds {found} cells besides its hexahedra; an FEM "
+                             f"body takes hexahedra only (give a mesh of hexahedra alone)")
 
 
 def centre_jacobians(points, hexes):
@@ -82,7 +104,7 @@ def check_orientation(points, hexes):
 
 def hex_mesh(geometry, element_size, case_dir="."):
     """(points, hexes) of an FEM body's validated ``geometry`` (box or mesh), rotated by
-    its ``rotate``. Raises MeshReadError or InvertedElementError."""
+    its ``rotate``. Raises MeshReadError, MixedMeshError or InvertedElementError."""
     if geometry["type"] == "box":
         counts = box_counts(geometry["min"], geometry["max"], element_size)
         points, hexes = box_mesh(geometry["min"], geometry["max"], counts)

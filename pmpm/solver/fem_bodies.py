@@ -64,9 +64,9 @@ class FemBodies:
         owner = element_owners(whole.centroids(), grid, slabs)
         part = partition_mesh(whole.hexes, len(whole.x), owner, world.rank, world.size)
         self.take_part(whole, part)
-        self.build_state(config)
-        self.fixed = face_constraints(self.x, config.grid) | whole.fixed[self.node_id]
+        self.fixed = whole.fixed[self.node_id].copy()
         self.fixed[self.rigid_nodes()] = False     # a rigid body keeps its velocity
+        self.build_state(config)
         self.load, self.load_scale = np.full(len(self.x), -1, np.int32), np.zeros(len(self.x))
         self.force = np.zeros_like(self.x)
 
@@ -79,6 +79,9 @@ class FemBodies:
         self.load_vectors = np.zeros((1, 3))
         self.materials = BodyMaterials(table.codes, table.params, table.rigid)
         self.speed, self.fault = 0.0, None
+        self.faces = constrained_faces(config.grid)
+        self.box = (np.asarray(config.grid.min, np.float64),
+                    np.asarray(config.grid.max, np.float64))
 
     @classmethod
     def from_checkpoint(cls, elements, nodes, config, table, world, grid, slabs):
@@ -147,6 +150,8 @@ class FemBodies:
             temp[elems] = initial_field(t_room if body.temperature is None
                                         else body.temperature, centroids[elems],
                                         f"bodies[{b}].temperature")
+        self.v[self.fixed] = 0.0                   # the constraints hold from the start
+        self.hold_at_faces(None)
         self.state = MaterialState(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
                                    rho0.copy(), np.zeros(m), np.zeros(m), temp, np.zeros(m))
         self.hourglass = Hourglass(*self.hourglass_forms(config), np.zeros((m, 12)),
@@ -241,7 +246,8 @@ class FemBodies:
         self.hexes = np.searchsorted(self.node_id, e["hexes"]).astype(np.int64)
         self.state = MaterialState(*(e[name] for name in MaterialState._fields))
         self.hourglass = self.hourglass._replace(resist=e["resist"], energy=e["hg_energy"])
-        self.partners, self.owned = shared_with(self.world, self.node_id)
+        self.partners, self.owned = shared_with(self.world, self.node_id, self.x,
+                                                 1e-6 * self.h)
         self.force = np.zeros_like(self.x)
 
     # -- records ------------------------------------------------------------------------
@@ -275,12 +281,38 @@ class FemBodies:
 
     def integrate(self, dt):
         advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
+        self.hold_at_faces(dt)
+
+    def hold_at_faces(self, dt):
+        """The grid faces' conditions on every node but a rigid body's (module function)."""
+        hold_at_faces(self.x, self.v, self.faces, ~self.rigid_nodes(), dt, 1e-9 * self.h)
 
     def move(self, dt):
         bad = advance_positions(self.x, self.v, dt)
         if bad >= 0 and self.fault is None:
             self.fault = (f"node {int(self.node_id[bad])} of FEM body "
                           f"'{self.names[self.node_body[bad]]}': position is not finite")
+        if self.fault is None:
+            self.fault = self.left_box()
+
+    def left_box(self):
+        """The fault of the first node outside the grid box (beyond a free face: the
+        others hold their nodes), or None. FE nodes are not dropped like particles: an
+        element without its node would break the mesh."""
+        lo, hi = self.box
+        tol = 1e-9 * self.h
+        out = (self.x < lo - tol) | (self.x > hi + tol)
+        gone = np.flatnonzero(out.any(axis=1))
+        if not len(gone):
+            return None
+        n = gone[0]
+        d = int(np.flatnonzero(out[n])[0])
+        face = f"{'xyz'[d]}{'-' if self.x[n, d] < lo[d] else '+'}"
+        name = self.names[self.node_body[n]]
+        return (f"node {int(self.node_id[n])} of FEM body '{name}' "
+                f"has left the grid box through the free face {face} (FE nodes are not "
+                f"dropped like particles; grid.lost_mass_fraction does not apply): enlarge "
+                f"the grid or make the face slip")
 
     def note_fault(self, e, what):
         b = int(self.body[e])
@@ -403,21 +435,33 @@ def in_global_order(parts):
     return {name: np.concatenate([p[1][name] for p in parts])[order] for name in parts[0][1]}
 
 
-def face_constraints(x, grid):
-    """(n, 3) bool: the velocity components held at zero at nodes on a grid face (within
-    1e-9 cells): every component on a fixed face, the normal one on a slip or symmetry
-    face."""
-    fixed = np.zeros(x.shape, bool)
-    tol = 1e-9 * grid.cell
+def constrained_faces(grid):
+    """The grid box's faces that hold nodes: (axis, side -1 (min) or +1 (max), plane,
+    whether it is fixed (else slip or symmetry))."""
+    faces = []
     for d in range(3):
-        for face, plane in ((f"{'xyz'[d]}-", grid.min[d]), (f"{'xyz'[d]}+", grid.max[d])):
-            on = np.abs(x[:, d] - plane) <= tol
-            kind = grid.boundary[face]
-            if kind == "fixed":
-                fixed[on] = True
-            elif kind in ("slip", "symmetry"):
-                fixed[on, d] = True
-    return fixed
+        for side, plane in ((-1, grid.min[d]), (1, grid.max[d])):
+            kind = grid.boundary[f"{'xyz'[d]}{'-' if side < 0 else '+'}"]
+            if kind in ("fixed", "slip", "symmetry"):
+                faces.append((d, side, float(plane), kind == "fixed"))
+    return faces
+
+
+def hold_at_faces(x, v, faces, movable, dt, tol):
+    """The grid faces' conditions on the ``movable`` nodes, as on grid nodes: on a face
+    (within ``tol`` of its plane) a fixed face zeroes the velocity, a slip or symmetry
+    face its normal component; beyond a face no component may point further out; and
+    (``dt`` given) a node that would cross a face in this step lands on it."""
+    for d, side, plane, fixed in faces:
+        gap = side * (plane - x[:, d])             # > 0 inside the box
+        at = movable & (gap <= tol)
+        if fixed:
+            v[at] = 0.0
+        else:
+            v[at & ((gap >= -tol) | (side * v[:, d] > 0)), d] = 0.0
+        if dt is not None:
+            crossing = movable & ~at & (side * v[:, d] * dt > gap)
+            v[crossing, d] = side * gap[crossing] / dt
 
 
 def free_face_areas(x, hexes, selected):
@@ -444,7 +488,7 @@ FemMesh = namedtuple("FemMesh", "points hexes fixed")
 def build_meshes(config, case_dir):
     """{body index: FemMesh} of the case's FEM bodies; SetupError naming the key of a mesh
     that cannot be built or a constraint that selects no node."""
-    from ..case.hexmesh import InvertedElementError, hex_mesh
+    from ..case.hexmesh import InvertedElementError, MixedMeshError, hex_mesh
     from ..case.mesh import MeshReadError
     meshes = {}
     for b, body in enumerate(config.bodies):
@@ -453,7 +497,7 @@ def build_meshes(config, case_dir):
         try:
             points, hexes = hex_mesh(body.geometry, body.fem["element_size"], case_dir)
             fixed = constrained(points, body, case_dir, f"bodies[{b}].fem.constraints")
-        except (MeshReadError, InvertedElementError) as error:
+        except (MeshReadError, InvertedElementError, MixedMeshError) as error:
             raise SetupError([f"bodies[{b}].geometry: {error}"]) from None
         meshes[b] = FemMesh(points, hexes, fixed)
     refuse_friction_faces(meshes, config.grid)

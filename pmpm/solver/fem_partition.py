@@ -25,21 +25,23 @@ class Partition:
 
 
 def partition_mesh(hexes, n_nodes, element_owner, rank, size):
-    """The Partition of ``rank`` given each element's owner rank."""
-    used = np.zeros((size, n_nodes), bool)
-    for r in range(size):
-        used[r, hexes[element_owner == r].ravel()] = True
+    """The Partition of ``rank`` given each element's owner rank: from the distinct
+    (node, user rank) pairs of the connectivity, O(m log m) time and O(n + m) memory on
+    each rank (no rank-by-node table)."""
+    pairs = np.unique(hexes.ravel() * size + np.repeat(element_owner, hexes.shape[1]))
+    node, user = np.divmod(pairs, size)            # by node, then by rank
     elements = np.flatnonzero(element_owner == rank)
-    nodes = np.flatnonzero(used[rank])
+    nodes = node[user == rank]
     local = np.full(n_nodes, -1, np.int64)
     local[nodes] = np.arange(len(nodes))
-    partners = []
-    for r in range(size):
-        common = np.flatnonzero(used[rank] & used[r]) if r != rank else []
-        if len(common):
-            partners.append((r, local[common]))
-    owned = np.argmax(used[:, nodes], axis=0) == rank if len(nodes) else np.zeros(0, bool)
-    return Partition(elements, nodes, local[hexes[elements]], partners, owned)
+    mine = local[node] >= 0                        # the pairs of this rank's nodes
+    partners = [(int(r), local[node[mine & (user == r)]])
+                for r in np.unique(user[mine]) if r != rank]
+    first = np.flatnonzero(np.r_[True, node[1:] != node[:-1]])
+    lowest = np.full(n_nodes, -1, np.int64)
+    lowest[node[first]] = user[first]
+    return Partition(elements, nodes, local[hexes[elements]], partners,
+                     lowest[nodes] == rank)
 
 
 def element_owners(centroids, grid, slabs):
@@ -49,18 +51,47 @@ def element_owners(centroids, grid, slabs):
     return slabs.owner_of_cells(grid.cells_of(centroids)[:, slabs.axis]).astype(np.int64)
 
 
-def shared_with(world, node_id):
-    """(partners, owned) of a rank holding the nodes ``node_id`` (ascending global ids),
-    from every rank's ids (collective): the local indices of the nodes shared with each
-    other rank, in global id order, and which nodes no lower rank holds."""
-    every = world.allgather(node_id)
+TAG = 80
+
+
+def shared_with(world, node_id, x, pad):
+    """(partners, owned) of a rank holding the nodes ``node_id`` (ascending global ids)
+    at positions ``x`` (collective: one allgather of bounding boxes, then the node ids
+    go only to the ranks whose box, grown by ``pad``, meets this one's: the copies of a
+    shared node lie at the same place, so no sharer is missed)."""
+    boxes = world.allgather(bounding_box(x))
+    near = overlapping(boxes, world.rank, pad)
+    requests = [world.raw.isend(node_id, dest=r, tag=TAG) for r in near]
+    others = {r: world.raw.recv(source=r, tag=TAG) for r in near}
+    for request in requests:
+        request.wait()
+    return sharers(node_id, world.rank, others)
+
+
+def bounding_box(x):
+    """(lo, hi) of the points ``x`` (n, 3); an empty box (lo > hi) when there are none."""
+    if not len(x):
+        return np.full(3, np.inf), np.full(3, -np.inf)
+    return x.min(axis=0), x.max(axis=0)
+
+
+def overlapping(boxes, rank, pad):
+    """The other ranks whose box (lo, hi), grown by ``pad``, meets ``rank``'s."""
+    lo, hi = boxes[rank]
+    return [r for r, (a, b) in enumerate(boxes) if r != rank and
+            np.all(a - pad <= hi + pad) and np.all(lo - pad <= b + pad)]
+
+
+def sharers(node_id, rank, others):
+    """(partners, owned) from the node ids ``others`` {rank: ascending ids} of the other
+    ranks that may share nodes: the local indices of the nodes shared with each, in
+    global id order, by rank; and which nodes no lower rank holds."""
     partners, owned = [], np.ones(len(node_id), bool)
-    for rank, ids in enumerate(every):
-        if rank == world.rank:
-            continue
-        _, mine, _ = np.intersect1d(node_id, ids, assume_unique=True, return_indices=True)
+    for other in sorted(others):
+        _, mine, _ = np.intersect1d(node_id, others[other], assume_unique=True,
+                                    return_indices=True)
         if len(mine):
-            partners.append((rank, mine))
-            if rank < world.rank:
+            partners.append((other, mine))
+            if other < rank:
                 owned[mine] = False
     return partners, owned
