@@ -11,14 +11,12 @@ Usage: .venv/bin/python scripts/fem_wave_bar.py [--width MM] [--no-mpm]
 import argparse
 import os
 
-import numpy as np
-from _common import ROOT, pyplot, run_case, save_figure, save_json, write_lines
+from _common import ROOT, run_case, save_json, write_lines
+import wave_bar
 
 from pmpm.post import axial_profiles, element_profiles, rms_error, wave_bar_stress
 
-C = np.sqrt(1.0e5 / 5.0e-3)
-LOAD = -2.5 / 36.0
-TIMES = (0.0076, 0.0156, 0.0416)
+C, LOAD, TIMES = wave_bar.C, wave_bar.LOAD, wave_bar.TIMES
 SIZES = (1.0, 0.5, 0.25)
 
 
@@ -72,23 +70,7 @@ def write_table(path, rows):
 
 
 def plot(path, profiles):
-    plt = pyplot()
-    if plt is None:
-        return
-    fig, axes = plt.subplots(len(TIMES), 1, figsize=(9, 9), sharex=True)
-    for ax, t in zip(axes, TIMES):
-        xs = np.linspace(0, 100, 2001)
-        ax.plot(xs, wave_bar_stress(xs, t, 100.0, C, LOAD) / LOAD, "k-", lw=2,
-                label="1D theory")
-        for size, prof in profiles.items():
-            x, s = prof[t]
-            ax.plot(x, s / LOAD, lw=1, label=f"FEM {size} mm")
-        ax.set_ylabel("sigma_xx / load")
-        ax.set_title(f"t = {1e3 * t:.1f} us")
-    axes[0].legend(fontsize=8)
-    axes[-1].set_xlabel("x (mm)")
-    save_figure(fig, path)
-
+    wave_bar.plot(path, profiles, label="FEM {} mm")
 
 if __name__ == "__main__":
     main()

@@ -67,7 +67,9 @@ def write_table(path, rows):
     write_lines(path, lines)
 
 
-def plot(path, profiles):
+def plot(path, profiles, label="cell {} mm"):
+    """sigma_xx / load along the bar at TIMES against the 1D solution; ``profiles`` maps
+    a size to {time: (x, sigma_xx)}, ``label`` formats a size (also scripts/fem_wave_bar.py)."""
     plt = pyplot()
     if plt is None:
         return
@@ -75,15 +77,14 @@ def plot(path, profiles):
     for ax, t in zip(axes, TIMES):
         xs = np.linspace(0, 100, 2001)
         ax.plot(xs, wave_bar_stress(xs, t, 100.0, C, LOAD) / LOAD, "k-", lw=2, label="1D theory")
-        for cell, prof in profiles.items():
+        for size, prof in profiles.items():
             x, s = prof[t]
-            ax.plot(x, s / LOAD, lw=1, label=f"cell {cell} mm")
+            ax.plot(x, s / LOAD, lw=1, label=label.format(size))
         ax.set_ylabel("sigma_xx / load")
         ax.set_title(f"t = {1e3 * t:.1f} us")
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("x (mm)")
     save_figure(fig, path)
-
 
 if __name__ == "__main__":
     main()
