@@ -33,6 +33,17 @@ def sum_shared_rows(world, values, partners):
     return total
 
 
+def swap_with(world, ranks, payload, tag=80):
+    """Send ``payload`` (a picklable object) to every rank of ``ranks`` and return what
+    each of them sent here, {rank: object}. Every rank of ``ranks`` must call it with
+    this rank among its own ``ranks`` (a symmetric relation), or it waits for ever."""
+    requests = [world.raw.isend(payload, dest=r, tag=tag) for r in ranks]
+    received = {r: world.raw.recv(source=r, tag=tag) for r in ranks}
+    for request in requests:
+        request.wait()
+    return received
+
+
 def exchange_objects(world, packages):
     """Send ``packages[r]`` to rank r (any picklable object, to self too) and return what
     every rank sent here, by rank: the elements that change rank, with their nodes, at

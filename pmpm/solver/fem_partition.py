@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..comm.shared_nodes import swap_with
+
 
 @dataclass
 class Partition:
@@ -51,9 +53,6 @@ def element_owners(centroids, grid, slabs):
     return slabs.owner_of_cells(grid.cells_of(centroids)[:, slabs.axis]).astype(np.int64)
 
 
-TAG = 80
-
-
 def shared_with(world, node_id, x, pad):
     """(partners, owned) of a rank holding the nodes ``node_id`` (ascending global ids)
     at positions ``x`` (collective: one allgather of bounding boxes, then the node ids
@@ -61,11 +60,7 @@ def shared_with(world, node_id, x, pad):
     shared node lie at the same place, so no sharer is missed)."""
     boxes = world.allgather(bounding_box(x))
     near = overlapping(boxes, world.rank, pad)
-    requests = [world.raw.isend(node_id, dest=r, tag=TAG) for r in near]
-    others = {r: world.raw.recv(source=r, tag=TAG) for r in near}
-    for request in requests:
-        request.wait()
-    return sharers(node_id, world.rank, others)
+    return sharers(node_id, world.rank, swap_with(world, near, node_id))
 
 
 def bounding_box(x):
