@@ -258,17 +258,50 @@ def test_an_fem_body_on_a_face_with_friction_stops_at_set_up(tmp_path):
                            "this face"), line
 
 
-def test_grid_contact_with_an_fem_body_is_refused(tmp_path):
+def coupled_tree(contact):
     geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
     tree = case_tree(geometry)
     tree["bodies"].append({"name": "ball", "material": "steel",
                            "geometry": {"type": "sphere", "center": [0, 0, -5],
                                         "radius": 2}})
-    tree["contact"] = {"method": 2, "pairs": [{"bodies": ["ball", "block"]}]}
+    tree["contact"] = contact
+    return tree
+
+
+@pytest.mark.parametrize("contact, problem", [
+    ({"coupling": "grid"}, "contact.coupling: grid coupling (CFEMP) puts the FE nodes into "
+                           "the multi-velocity grid contact: set contact.method to 1 or 2, "
+                           "or use surface coupling"),
+    ({"pairs": [{"bodies": ["ball", "block"], "coupling": "grid"}]},
+     "contact.pairs[0].coupling: grid coupling (CFEMP) needs contact.method 1 or 2"),
+    ({"method": 2, "pairs": [{"bodies": ["ball", "block"], "normal": "ball"}]},
+     "contact.pairs[0].normal: in surface coupling the FEM body 'block' is the master: its "
+     "faces give the normal, not the particle body 'ball'"),
+    ({"coupling": "wedge"}, "contact.coupling: must be one of surface, grid; got 'wedge'"),
+])
+def test_a_coupling_that_cannot_be_made_is_refused_naming_its_key(tmp_path, contact,
+                                                                   problem):
     with pytest.raises(CaseError) as error:
-        load_case(write_case(tmp_path, tree))
-    assert error.value.problems == ["contact.pairs[0].bodies: 'block' is an FEM body: FEM "
-                                    "bodies take no part in grid contact yet"]
+        load_case(write_case(tmp_path, coupled_tree(contact)))
+    assert error.value.problems == [problem]
+
+
+def test_coupling_codes_follow_the_section_and_the_pairs(tmp_path):
+    from pmpm.solver.bodies import BodyTable
+    from pmpm.solver.contact import GRID_COUPLING, SURFACE_COUPLING, ContactRules
+    tree = coupled_tree({"method": 2, "coupling": "grid"})
+    tree["bodies"].append({"name": "rod", "material": "steel",
+                           "geometry": {"type": "sphere", "center": [0, 0, 5],
+                                        "radius": 1}})
+    tree["contact"]["pairs"] = [{"bodies": ["rod", "block"], "coupling": "surface"}]
+    config = load_case(write_case(tmp_path, tree))
+    rules = ContactRules(config.contact, BodyTable(config),
+                         [b.method == "fem" for b in config.bodies])
+    block, ball, rod = (config.bodies.index(b) for b in config.bodies
+                        if b.name in ("block", "ball", "rod"))
+    assert rules.coupling[block, ball] == rules.coupling[ball, block] == GRID_COUPLING
+    assert rules.coupling[block, rod] == rules.coupling[rod, block] == SURFACE_COUPLING
+    assert rules.coupling[ball, rod] == 0 and rules.coupling[block, block] == 0
 
 
 def test_partition_owns_each_element_once_and_shares_nodes_symmetrically():

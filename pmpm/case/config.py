@@ -174,11 +174,12 @@ class PairConfig:
     normal: str
     separation: float | None
     release: float | None
+    coupling: str
 
     @classmethod
     def from_case(cls, pair, contact):
         inherited = {key: contact.get(key)
-                     for key in ("friction", "normal", "separation", "release")}
+                     for key in ("friction", "normal", "separation", "release", "coupling")}
         return record(cls, {**inherited, **pair})
 
 
@@ -193,6 +194,7 @@ class ContactConfig:
     normal: str
     separation: float | None
     release: float | None
+    coupling: str
     pairs: tuple
 
     @classmethod

@@ -8,19 +8,22 @@
                             # cells apart at a node (absent or none: the paper's detection)
       release: 0.0          # optional: no contact where the surfaces' gap from particle
                             # positions exceeds 0 cells (absent or none: the paper's rule)
+      coupling: surface     # how FEM bodies meet particle bodies (seed 004): surface
+                            # (ICFEMP, Sec. 3) or grid (CFEMP, Sec. 2.4; needs method 1 or 2)
       pairs:                # optional: per pair of bodies
         - bodies: [ball, plate]
           friction: 0.0
           normal: ball      # the named body's own normal (Sec. 2.3 choices 1 and 2)
           separation: 0.9
           release: 0.0
+          coupling: grid    # a pair of an FEM body and a particle body
 
 With method 1 or 2 every body has its own velocity field at nodes that two or more
 bodies reach, and every pair of bodies is in contact.
 """
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Custom, Field, at_least, boolean, greater, list_of,
-                     mapping, number, text, valid)
+from .fields import (INVALID, OMIT, Custom, Field, at_least, boolean, choice, greater,
+                     list_of, mapping, number, text, valid)
 
 METHODS = {"none": 0, "0": 0, "1": 1, "2": 2}
 NORMAL_RULES = ("average", "stiffer")
@@ -61,6 +64,13 @@ def read_release(raw, path, problems):
 SEPARATION = Custom(read_separation, "number > 0, or `none`")
 RELEASE = Custom(read_release, "number >= 0, or `none`")
 NORMAL = "`average`, `stiffer`"
+COUPLINGS = ("surface", "grid")
+COUPLING_DOC = ("how an FEM body and a particle body meet (seed 004): `surface` (ICFEMP, "
+                "Sec. 3): the FEM body's free element faces are master segments and the "
+                "particles are kept out of them by a velocity constraint with Coulomb "
+                "friction, whatever the element size; `grid` (CFEMP, Sec. 2.4): the FE nodes "
+                "join the multi-velocity grid contact as particles of their body (needs "
+                "method 1 or 2, and elements about the size of a cell)")
 PAIR = {
     "bodies": Field(Custom(read_pair_bodies, "two body names"),
                     doc="the two bodies of the pair, e.g. [ball, plate]"),
@@ -76,6 +86,9 @@ PAIR = {
     "release": Field(RELEASE, OMIT, "cells",
                      "as contact.release, for this pair (`none`: not for this pair; left "
                      "out: contact.release)"),
+    "coupling": Field(choice(COUPLINGS, "coupling"), OMIT,
+                      doc="as contact.coupling, for a pair of an FEM body and a particle "
+                          "body (left out: contact.coupling)"),
 }
 CONTACT = {
     "method": Field(Custom(read_method, "`none`, `1`, `2`"), 0,
@@ -111,6 +124,7 @@ CONTACT = {
                      "the normal, so bodies that part keep their momentum (0: contact only "
                      "across a closed gap; docs/validation/two_bars.md); left out or "
                      "`none`: seed 001's contact"),
+    "coupling": Field(choice(COUPLINGS, "coupling"), "surface", doc=COUPLING_DOC),
     "pairs": Field(list_of(mapping(PAIR), 0, "pair"), [],
                    doc="the pairs of bodies with their own friction, normal or separation"),
 }

@@ -1,7 +1,7 @@
 """The keys of an FEM body (``method: fem``, ``fem:``) and the checks that relate them to
 the rest of the case: the geometries an FEM mesh is made from, a readable and
-well-oriented mesh, no grid contact or window that would need coupling to particles
-(seed 004's CFEMP and ICFEMP are not built yet)."""
+well-oriented mesh, and the coupling of FEM bodies to particle bodies (``contact.coupling``,
+seed 004's CFEMP and ICFEMP)."""
 import os
 
 import numpy as np
@@ -72,7 +72,7 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
         if valid(body, "geometry"):
             check_fem_geometry(body, case_dir, check_geometry, path, problems)
     if fem_names:
-        check_no_coupling(case, fem_names, problems)
+        check_coupling(case, fem_names, problems)
 
 
 def complete_fem(fem, grid):
@@ -159,20 +159,45 @@ def too_many_elements(body, path, problems):
     return False
 
 
-def check_no_coupling(case, fem_names, problems):
-    """Grid contact and window-following would need FE nodes on the grid (CFEMP)."""
+def check_coupling(case, fem_names, problems):
+    """FEM bodies meet particle bodies by ``contact.coupling`` (or a pair's): grid coupling
+    needs the multi-velocity grid (method 1 or 2); in a surface pair the FEM body is the
+    master, so a pair's ``normal`` may not name its particle body; two FEM bodies do not
+    meet yet; a window follows particle bodies only."""
     contact = case["contact"]
-    if valid(contact, "pairs"):
-        for i, pair in enumerate(contact["pairs"]):
-            named = [n for n in pair.get("bodies", []) if n in fem_names] \
-                if isinstance(pair, dict) else []
-            if named:
-                problems.add(join(join("contact.pairs", i), "bodies"),
-                             f"'{named[0]}' is an FEM body: FEM bodies take no part in "
-                             f"grid contact yet")
+    if contact is INVALID:
+        return
+    method = contact.get("method")
+    if valid(contact, "coupling") and contact["coupling"] == "grid" and method == 0:
+        problems.add("contact.coupling", "grid coupling (CFEMP) puts the FE nodes into "
+                     "the multi-velocity grid contact: set contact.method to 1 or 2, or "
+                     "use surface coupling")
+    for i, pair in enumerate(contact.get("pairs") or []):
+        if isinstance(pair, dict) and valid(pair, "bodies"):
+            check_pair_coupling(pair, join("contact.pairs", i), contact, fem_names, problems)
     grid = case["grid"]
     windows = grid.get("windows") if isinstance(grid, dict) else None
     for i, window in enumerate(windows if isinstance(windows, list) else []):
         if valid(window, "follow") and window["follow"] in fem_names:
             problems.add(f"grid.windows[{i}].follow", f"'{window['follow']}' is an FEM "
                          f"body: a window follows particle bodies only")
+
+
+def check_pair_coupling(pair, path, contact, fem_names, problems):
+    named = [n for n in pair["bodies"] if n in fem_names]
+    if len(named) == 2:
+        problems.add(join(path, "bodies"), "FEM bodies do not meet each other yet (no "
+                     "FEM-to-FEM contact): list pairs of an FEM body and a particle body")
+        return
+    if not named:
+        return
+    coupling = pair.get("coupling", contact.get("coupling"))
+    if coupling == "grid" and pair.get("coupling") == "grid" and contact.get("method") == 0:
+        problems.add(join(path, "coupling"), "grid coupling (CFEMP) needs contact.method "
+                     "1 or 2")
+    normal = pair.get("normal")
+    if coupling == "surface" and isinstance(normal, str) and normal in pair["bodies"] \
+            and normal not in fem_names:
+        problems.add(join(path, "normal"), f"in surface coupling the FEM body "
+                     f"'{named[0]}' is the master: its faces give the normal, not the "
+                     f"particle body '{normal}'")

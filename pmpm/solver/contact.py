@@ -13,6 +13,9 @@ from .couplings import Coupling
 from .workspace import Workspace
 
 MAX_BODIES = 62          # one bit per body in the int64 node masks
+#: ``ContactRules.coupling`` codes of a pair of an FEM body and a particle body
+NO_COUPLING, GRID_COUPLING, SURFACE_COUPLING = 0, 1, 2
+COUPLING_CODES = {"grid": GRID_COUPLING, "surface": SURFACE_COUPLING}
 
 
 class ContactRules:
@@ -28,10 +31,14 @@ class ContactRules:
     release : (nb, nb) float64   cells; the release rule: no contact where the surfaces
         of the two bodies at a node, from their particles' positions, are more than this
         far apart (inf: no release rule, seed 001's methods unchanged)
+    coupling : (nb, nb) int64   for a pair of an FEM body and a particle body, how they
+        meet (GRID_COUPLING: CFEMP, SURFACE_COUPLING: ICFEMP); NO_COUPLING for every
+        other pair
     """
 
-    def __init__(self, contact, bodies):
-        """``contact``: a ``pmpm.case.ContactConfig``; ``bodies``: a BodyTable."""
+    def __init__(self, contact, bodies, fem=None):
+        """``contact``: a ``pmpm.case.ContactConfig``; ``bodies``: a BodyTable; ``fem``:
+        per body, whether it is an FEM body (None: none is)."""
         names = bodies.names
         nb = len(names)
         self.method = contact.method
@@ -55,6 +62,8 @@ class ContactRules:
             self.release[a, b] = self.release[b, a] = _limit(pair.release)
             self.master[a, b] = self.master[b, a] = _master(pair.normal, a, b, names,
                                                             stiffness)
+        self.coupling = _couplings(contact, names, np.zeros(nb, bool) if fem is None
+                                   else np.asarray(fem, bool))
 
     @property
     def active(self):
@@ -67,6 +76,17 @@ class ContactRules:
 
     def record(self):
         return PairRules(self.master, self.friction, self.separation)
+
+
+def _couplings(contact, names, fem):
+    """The coupling code of every pair (see ``ContactRules.coupling``)."""
+    mixed = fem[:, None] != fem[None, :]
+    coupling = np.where(mixed, COUPLING_CODES[contact.coupling], NO_COUPLING)
+    for pair in contact.pairs:
+        a, b = (names.index(name) for name in pair.bodies)
+        if mixed[a, b]:
+            coupling[a, b] = coupling[b, a] = COUPLING_CODES[pair.coupling]
+    return coupling.astype(np.int64)
 
 
 def _limit(separation):

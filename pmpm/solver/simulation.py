@@ -47,7 +47,8 @@ class Simulation:
                                            len(bodies.names))
         self.refiner = Refiner(world, grid, self.windows, self.kinds,
                                n_total if id_base is None else id_base)
-        rules = ContactRules(config.contact, bodies)
+        rules = ContactRules(config.contact, bodies,
+                             [b.method == "fem" for b in config.bodies])
         couplings = [TiedInterface(world)] if self.windows else []
         if rules.active:
             couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states)))
