@@ -277,7 +277,7 @@ def coupled_tree(contact):
     ({"method": 2, "pairs": [{"bodies": ["ball", "block"], "normal": "ball"}]},
      "contact.pairs[0].normal: in surface coupling the FEM body 'block' is the master: its "
      "faces give the normal, not the particle body 'ball'"),
-    ({"coupling": "wedge"}, "contact.coupling: must be one of surface, grid; got 'wedge'"),
+    ({"coupling": "wedge"}, "contact.coupling: unknown coupling 'wedge'; known: grid, surface"),
 ])
 def test_a_coupling_that_cannot_be_made_is_refused_naming_its_key(tmp_path, contact,
                                                                    problem):
@@ -294,7 +294,8 @@ def test_coupling_codes_follow_the_section_and_the_pairs(tmp_path):
                            "geometry": {"type": "sphere", "center": [0, 0, 5],
                                         "radius": 1}})
     tree["contact"]["pairs"] = [{"bodies": ["rod", "block"], "coupling": "surface"}]
-    config = load_case(write_case(tmp_path, tree))
+    from pmpm.case import load_config
+    config = load_config(write_case(tmp_path, tree))
     rules = ContactRules(config.contact, BodyTable(config),
                          [b.method == "fem" for b in config.bodies])
     block, ball, rod = (config.bodies.index(b) for b in config.bodies
