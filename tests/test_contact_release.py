@@ -127,3 +127,53 @@ def test_surface_gap_of_two_touching_faces_is_zero_and_opens_with_the_particles(
     cext[0, 1, 3] = -0.35                                   # body 1 moved 0.1 cell away
     assert kc.surface_gap(cext, 0, 0, 1, normal, half) == pytest.approx(0.1)
     assert kc.surface_gap(cext, 0, 1, 0, -normal, half) == pytest.approx(0.1)
+
+
+def hat_share_below(s):
+    """The share of a node's 1D hat (cells) below a flat face at s."""
+    s = np.clip(s, -1.0, 1.0)
+    return np.where(s <= 0, (1 + s) ** 2 / 2, 1 - (1 - s) ** 2 / 2)
+
+
+@pytest.mark.parametrize("face", [-0.8, -0.3, 0.0, 0.45, 0.9])
+@pytest.mark.parametrize("gap", [0.0, 0.05, 0.1])
+def test_volume_gap_reads_a_flat_gap_at_any_distance_from_the_node(face, gap):
+    """Body 0 fills the hat below ``face``, body 1 above ``face + gap``; a node on one box
+    face (capacity 1/2) holds half of each share."""
+    from pmpm.kernels import contact as kc
+    if face + gap > 1.0:
+        pytest.skip("body 1 beyond the hat")
+    cvol = np.array([[hat_share_below(face), 1 - hat_share_below(face + gap)]]) * 0.5
+    assert kc.volume_gap(cvol, 0, 0, 1, 0.5) == pytest.approx(gap, abs=1e-12)
+    assert kc.volume_gap(cvol, 0, 1, 0, 0.5) == pytest.approx(gap, abs=1e-12)
+
+
+def test_node_capacity_halves_on_each_box_face():
+    from pmpm.kernels import contact as kc
+    from pmpm.kernels.records import NodeBlock
+    shape = np.array([3, 4, 5], np.int64)
+    strides = np.array([1, 3, 12], np.int64)              # x fastest, as blocks may be
+    block = NodeBlock(shape, np.array([-1, 0, 2], np.int64), strides,
+                      np.array([8, 3, 10], np.int64), np.zeros(6, np.int64),
+                      np.zeros(60, np.uint16), np.zeros(6))
+    def node(i, j, k):
+        return i * strides[0] + j * strides[1] + k * strides[2]
+    assert kc.node_capacity(node(2, 1, 1), block) == 1.0     # global (1, 1, 3)
+    assert kc.node_capacity(node(1, 1, 1), block) == 0.5     # x = 0
+    assert kc.node_capacity(node(1, 3, 1), block) == 0.25    # x = 0, y = 3 = n_cells
+    assert kc.node_capacity(node(1, 0, 4), block) == 0.25    # x = 0, y = 0
+
+
+@pytest.mark.parametrize("sets, problem", [
+    (["contact.gap=volume", "contact.release=none"],
+     "contact.gap: the volume gap is how the release rule measures the gap: set "
+     "contact.release (e.g. 0) as well"),
+    (["contact.gap=volume", "grid.shape_functions=bspline"],
+     "contact.gap: the volume gap reads the shares of the trilinear hat that linear and "
+     "gimp shape functions weigh with; with bspline use gap: reach"),
+])
+def test_a_volume_gap_that_cannot_work_is_refused(sets, problem):
+    from pmpm.case import CaseError, load_case
+    with pytest.raises(CaseError) as error:
+        load_case(CASE, sets)
+    assert error.value.problems == [problem]

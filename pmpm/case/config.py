@@ -194,6 +194,7 @@ class ContactConfig:
     normal: str
     separation: float | None
     release: float | None
+    gap: str
     coupling: str
     pairs: tuple
 

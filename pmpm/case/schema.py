@@ -6,7 +6,7 @@ import copy
 import dataclasses
 import math
 
-from .contact import CONTACT, check_contact
+from .contact import CONTACT, check_contact, check_gap_measure
 from .windows import WINDOW, check_window_bodies, check_windows
 from .bodies import BODY, check_bodies_in_grid, check_mesh_files, check_min_below_max
 from .errors import CaseError, Problems, join, unknown_name
@@ -308,6 +308,7 @@ def check_references(case, problems):
     _check_output_times(case, problems)
     if all(valid(body, "name") for body in bodies):
         check_contact(case["contact"], body_names, problems)
+        check_gap_measure(case["contact"], case["grid"], problems)
         check_window_bodies(case["grid"], body_names, problems)
     names_complete = all(valid(body, "name") for body in bodies)
     for i, load in enumerate(loads):

@@ -325,10 +325,11 @@ def surface_gap(cext, s, b, other, normal, half_width):
 
 
 @njit(cache=True)
-def release_open_gaps(slots, cext, release, half_width, m_tiny, block):
+def release_open_gaps(slots, cext, cvol, release, half_width, m_tiny, block):
     """The release rule, after :func:`contact_start`: where the surfaces of a body and the
     heaviest other body at a contact node are more than ``release[b, other]`` cells apart
-    (:func:`surface_gap`), the body is not in contact there this step: its start velocity
+    (:func:`volume_gap` when ``cvol`` has the slots' rows, else :func:`surface_gap` from
+    ``cext``), the body is not in contact there this step: its start velocity
     goes back to its own (Eq. 6, undoing method 2's Eq. 25) and its normal to zero, so
     that :func:`contact_end` applies no force (Eq. 12 needs an approach along a normal).
     Contact then pushes only across a closed gap, and bodies that part keep their
@@ -345,7 +346,11 @@ def release_open_gaps(slots, cext, release, half_width, m_tiny, block):
             other = _heaviest_other(cnodal, s, b, m_tiny)
             if other < 0:
                 continue
-            if surface_gap(cext, s, b, other, cnorm[s, b], half_width) <= release[b, other]:
+            if cvol.shape[0]:
+                gap = volume_gap(cvol, s, b, other, node_capacity(n, block))
+            else:
+                gap = surface_gap(cext, s, b, other, cnorm[s, b], half_width)
+            if gap <= release[b, other]:
                 continue
             for d in range(3):
                 vec[d] = cnodal[s, b, 1 + d] / m
@@ -353,3 +358,62 @@ def release_open_gaps(slots, cext, release, half_width, m_tiny, block):
             for d in range(3):
                 cvel[s, b, d] = vec[d]
                 cnorm[s, b, d] = 0.0
+
+
+@njit(cache=True)
+def contact_volumes(pts, volume, geo, slot_of, cvol, want):
+    """Each body's shape-function-weighted particle volume sum_p S_ip V_p at the contact
+    nodes, in cells^3 (``volume``: the particles' current volumes), for the volume gap
+    (:func:`volume_gap`). With particles that tile their body (uGIMP domains, or hats
+    sampled at the particles) it is the integral of the node's trilinear hat over the
+    body's material."""
+    x, _, _, body, level = pts
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
+    axes = np.empty((9, 3))
+    for p in range(x.shape[0]):
+        if level[p] != want:
+            continue
+        b, vp = body[p], volume[p] * inv_h ** 3
+        base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
+        for a in range(reach):
+            for bb in range(reach):
+                for cc in range(reach):
+                    s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
+                    if s >= 0:
+                        cvol[s, b] += vp * axes[0, a] * axes[3, bb] * axes[6, cc]
+
+
+@njit(cache=True, inline="always")
+def _hat_depth(fraction):
+    """Where a body's flat surface lies, in cells from the node along its outward normal,
+    when it fills ``fraction`` of the node's hat (the inverse of the hat's running
+    integral: (1 + s)^2 / 2 for s <= 0, 1 - (1 - s)^2 / 2 above)."""
+    f = min(max(fraction, 0.0), 1.0)
+    if f <= 0.5:
+        return np.sqrt(2.0 * f) - 1.0
+    return 1.0 - np.sqrt(2.0 * (1.0 - f))
+
+
+@njit(cache=True, inline="always")
+def node_capacity(n, block):
+    """The integral of node n's hat over the grid box, in cells^3: 1 inside, 1/2 per
+    axis on which the node lies on a face of the box."""
+    capacity = 1.0
+    for d in range(3):
+        i = block.lo[d] + (n // block.strides[d]) % block.shape[d]
+        if i <= 0 or i >= block.n_cells[d]:
+            capacity *= 0.5
+    return capacity
+
+
+@njit(cache=True, inline="always")
+def volume_gap(cvol, s, b, other, capacity):
+    """The gap (cells) between the surfaces of b and ``other`` at slot s from the share
+    of the node's hat each body fills (``cvol`` in cells^3, ``capacity`` the node's):
+    each body's surface is placed where a flat face normal to the line between them would
+    fill that share (:func:`_hat_depth`). Touching flat faces give 0 at any distance from
+    the node; unlike the particles' farthest reach it weighs the surfaces near the node,
+    not the nearest point anywhere in its support, so a curved surface is not met early
+    by the nodes beside the contact patch."""
+    return -_hat_depth(cvol[s, other] / capacity) - _hat_depth(cvol[s, b] / capacity)

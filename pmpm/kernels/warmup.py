@@ -72,7 +72,10 @@ def warm_up_contact(pts, geo, block, gvel, gnew):
     contact.contact_end(slots, gvel, gnew, rules, rigid, True, 1e-3, 0.0, block)
     cext = np.full((0, 1, contact.CEXT), -np.inf)
     contact.contact_extents(pts, geo, slot_of, cext, 0)
-    contact.release_open_gaps(slots, cext, np.zeros((1, 1)), geo.half_width, 0.0, block)
+    cvol = np.zeros((0, 1))
+    contact.contact_volumes(pts, np.ones(len(pts.x)), geo, slot_of, cvol, 0)
+    contact.release_open_gaps(slots, cext, cvol, np.zeros((1, 1)), geo.half_width, 0.0,
+                              block)
     return slots, ContactView(slot_of, cvel, cforce, cnew)
 
 

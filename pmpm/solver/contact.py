@@ -31,6 +31,8 @@ class ContactRules:
     release : (nb, nb) float64   cells; the release rule: no contact where the surfaces
         of the two bodies at a node, from their particles' positions, are more than this
         far apart (inf: no release rule, seed 001's methods unchanged)
+    volume_gap : bool   the release rule measures the gap from the bodies' shares of the
+        node's hat (``contact.gap: volume``) rather than their particles' reach
     coupling : (nb, nb) int64   for a pair of an FEM body and a particle body, how they
         meet (GRID_COUPLING: CFEMP, SURFACE_COUPLING: ICFEMP); NO_COUPLING for every
         other pair
@@ -48,6 +50,7 @@ class ContactRules:
         self.friction = np.full((nb, nb), float(contact.friction))
         self.separation = np.full((nb, nb), _limit(contact.separation))
         self.release = np.full((nb, nb), _limit(contact.release))
+        self.volume_gap = contact.gap == "volume"
         self.master = np.full((nb, nb), -1, np.int64)
         default = contact.normal
         stiffness = [_stiffness(bodies, b) for b in range(nb)]
@@ -124,7 +127,8 @@ class GridContact(Coupling):
     def after_mass_sum(self, grids, kinds):
         nb = len(self.bodies.names)
         for s in grids:
-            self.fields[s.index].map_points(kinds, s, nb, self.rules.releases)
+            self.fields[s.index].map_points(kinds, s, nb, self.rules.releases,
+                                            self.rules.volume_gap)
 
     def after_velocities(self, grids):
         for s in grids:
@@ -135,7 +139,7 @@ class GridContact(Coupling):
             kc.contact_start(f.slots(), s.gvel, self.pairs, self.bodies.rigid,
                              self.rules.method, self.m_tiny, s.nodes)
             if self.rules.releases:
-                kc.release_open_gaps(f.slots(), f.cext, self.rules.release,
+                kc.release_open_gaps(f.slots(), f.cext, f.cvol, self.rules.release,
                                      s.geometry.half_width, self.m_tiny, s.nodes)
             f.cforce = f.slot_array("cforce", 3, nb)
 
@@ -172,6 +176,7 @@ class ContactFields:
         self.cvel = self.cnorm = self.cforce = np.zeros((0, 1, 3))
         self.cnew = np.zeros((0, 1, kc.CNEW))
         self.cext = np.zeros((0, 1, kc.CEXT))
+        self.cvol = np.zeros((0, 1))
 
     def find_contact_nodes(self, kinds, state):
         """Nodes that points of two or more bodies reach, tied slaves left out (they
@@ -205,16 +210,22 @@ class ContactFields:
         flat = (self.work.zeros if zero else self.work.empty)(name, rows, width * n_bodies)
         return flat.reshape(rows, n_bodies, width)
 
-    def map_points(self, kinds, state, n_bodies, extents=False):
+    def map_points(self, kinds, state, n_bodies, extents=False, volumes=False):
         """Per-body mass, momentum, mass gradient and mean offset at the contact nodes of
         one grid level from its points; with ``extents`` also the farthest reach of each
-        body's particles (``cext``, for the release rule)."""
+        body's particles (``cext``, for the release rule), and with ``volumes`` their
+        weighted volumes instead (``cvol``, for the release rule's volume gap)."""
         self.find_contact_nodes(kinds, state)
         self.cnodal = self.slot_array("cnodal", kc.CNODAL, n_bodies)
         for kind in kinds:
             kind.scatter_contact(state, self.slot_of, self.cnodal)
         self.sum_on_shared_planes(state.block, self.cnodal)
-        if extents:
+        if extents and volumes:
+            self.cvol = self.slot_array("cvol", 1, n_bodies)[:, :, 0]
+            for kind in kinds:
+                kind.scatter_volumes(state, self.slot_of, self.cvol)
+            self.sum_on_shared_planes(state.block, self.cvol)
+        elif extents:
             self.cext = self.slot_array("cext", kc.CEXT, n_bodies, zero=False)
             self.cext.fill(-np.inf)
             for kind in kinds:

@@ -82,6 +82,12 @@ class ParticleBodies:
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.points(), state.geometry, slot_of, cext, state.index)
 
+    def scatter_volumes(self, state, slot_of, cvol):
+        p = self.particles
+        volume = self.work.empty("volume", p.n, 1)[:, 0]
+        np.divide(p.mass, p.rho, out=volume)
+        kc.contact_volumes(self.points(), volume, state.geometry, slot_of, cvol, state.index)
+
     def stress_and_forces(self, state, dt, contact):
         """USF: stresses from the start-of-step nodal velocities and the nodal forces in one
         pass. Returns the fastest wave plus particle speed, as the speed that gives the
