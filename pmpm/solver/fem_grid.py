@@ -33,6 +33,15 @@ forces, one back with the velocity change, only in steps where some rank lends).
 velocity change is then summed over the holders (one rank's is non-zero), so every copy
 takes the same.
 
+Shape functions: an FE node is a point of no extent, and with the trilinear hats the
+gradient of a node's weight jumps where the point sits on that node. A mesh whose nodes
+lie on grid planes (elements = cells on the grid lines) then gets mass gradients whose
+tangential parts flip with every rounding-error move of its nodes, and the normals are
+garbage: a block on such a plate stuck (tests/cases/fem_grid_sliding.yaml with
+``linear``: a = -0.14 instead of 3.27 m/s^2; the plate moved off the grid planes by a
+quarter cell: 2.93). With ``gimp`` (the node has the half-width of its body) or
+``bspline`` the gradients are continuous and the same plate gives 3.25 (gimp, method 1).
+
 FE nodes map to the coarse grid only: a refined window over a grid-coupled FEM body is
 refused at set-up, as are MUSL and an FEM body that meets some particle bodies on the
 grid and others by surface contact.
