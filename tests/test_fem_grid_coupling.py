@@ -122,6 +122,25 @@ def test_what_grid_coupling_cannot_do_yet_is_refused_naming_its_key(tmp_path, se
     assert pmpm_lines(done.stderr) == [f"pmpm: error: {problem}"]
 
 
+def test_an_fem_body_on_the_grid_and_on_surface_contact_at_once_is_refused(tmp_path):
+    """The grid contact cannot leave one pair out, so an FEM body meets every particle
+    body the same way; set-up says which pair to change."""
+    with open(BOUNCE) as f:
+        tree = yaml.safe_load(f)
+    tree["bodies"].append({"name": "pebble", "material": "soft",
+                           "geometry": {"type": "box", "min": [0.002, 0.006, 0.018],
+                                        "max": [0.006, 0.01, 0.022]}})
+    tree["contact"]["pairs"] = [{"bodies": ["plate", "pebble"], "coupling": "surface"}]
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(tree))
+    done = pmpm([case, "--out", tmp_path / "out"])
+    assert done.returncode == 2, done.stderr
+    assert pmpm_lines(done.stderr) == [
+        "pmpm: error: contact.pairs[0].coupling: FEM body 'plate' meets some particle "
+        "bodies on the grid and others by surface contact; give all its pairs one "
+        "coupling"]
+
+
 # -- 1 rank against 2 (pytest-mpi) ---------------------------------------------------------
 def run_in_process(world, out, sets):
     from pmpm.__main__ import parse_args
