@@ -52,8 +52,14 @@ METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it i
               "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
               "holds its centroid; with a `rigid` material it moves with its velocity. FEM "
               "bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
-              "or symmetry face takes that condition) but are not yet coupled to particle "
-              "bodies: they pass through them")
+              "or symmetry face takes that condition). With `contact.coupling: grid` "
+              "(CFEMP, seed 004 Sec. 2.4; contact.method 1 or 2) their nodes join the "
+              "multi-velocity grid contact as particles of their body, on the coarse grid "
+              "(no refined window over them; usf only), and take the contact's velocity "
+              "change; it wants elements about a cell in size (larger ones let particles "
+              "leak in between the nodes) and, with FE nodes on grid nodes, `gimp` or "
+              "`bspline` shape functions (the hat's gradient jumps at a node, which spoils "
+              "the normal)")
 
 
 def check_fem_bodies(case, case_dir, check_geometry, problems):

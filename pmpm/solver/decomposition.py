@@ -27,6 +27,9 @@ class Decomposition:
         self.world, self.grid, self.slabs = world, grid, slabs
         self.grids, self.windows = grids, windows
         self.cell_ranges = []
+        #: other points the blocks must cover (FE nodes on the grid): objects with
+        #: ``spans(grids, grid)``
+        self.span_sources = []
         self.lost = 0
         self.lost_count = np.zeros(n_bodies)   # per body, over all ranks
         self.lost_mass = np.zeros(n_bodies)
@@ -39,6 +42,7 @@ class Decomposition:
         """Per level, (-lowest, highest) cell of every kind's points (max over kinds)."""
         self.assign_levels(kinds)
         spans = [self.grids.spans(self.grid, k.particles.x, k.level_of) for k in kinds]
+        spans += [source.spans(self.grids, self.grid) for source in self.span_sources]
         return np.maximum.reduce(spans)
 
     def update_cell_ranges(self, kinds):

@@ -11,12 +11,16 @@ In each step, from the positions x^k and the velocities v^(k-1/2):
   nodes that lie on them;
 * ``move``: x^(k+1) = x^k + dt v^(k+1/2).
 
-No coupling to particles yet (CFEMP, ICFEMP). Over MPI an element belongs to the rank
-whose slab holds its centroid; it moves there with its state and its nodes when the
-decomposition checks its balance (the elements are not on the grid yet, so where they
-live changes no answer, only the balance); the forces of the nodes that several ranks
-hold are summed over them in rank order (pmpm.comm.shared_nodes), so every copy of a
-node moves the same and 1 rank agrees with N to round-off.
+The step runs ``stress_and_forces`` and ``integrate`` before the grid's forces are
+summed, so that grid coupling (CFEMP, ``pmpm.solver.fem_grid``) can put the nodes' trial
+velocities on the grid; it then changes the nodes' velocities by the contact's
+correction before ``move``. Over MPI an element belongs to the rank whose slab holds its
+centroid; it moves there with its state and its nodes when the decomposition checks its
+balance (grid coupling maps each node from the rank whose slab holds the node, whichever
+ranks hold its elements, so where elements live changes no answer, only the balance);
+the forces of the nodes that several ranks hold are summed over them in rank order
+(pmpm.comm.shared_nodes), so every copy of a node moves the same and 1 rank agrees with
+N to round-off.
 """
 import os
 from collections import namedtuple

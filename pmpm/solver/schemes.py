@@ -28,7 +28,7 @@ class ModifiedUpdateStressLast:
     def advance(self, step, dt):
         step.map_to_grid()
         step.nodal_velocities()
-        step.nodal_forces()
+        step.nodal_forces(dt)
         step.integrate(dt)
         step.for_each_kind("remember_start_positions")
         step.update_points(dt)

@@ -13,6 +13,7 @@ from .decomposition import Decomposition
 from .energy import gravitational_potential, load_power
 from .errors import SetupError
 from .fem_bodies import FemBodies, build_meshes
+from .fem_grid import grid_coupled_nodes
 from .levels import Hierarchy
 from .observe import body_stats, energies
 from .particle_bodies import ParticleBodies
@@ -52,9 +53,11 @@ class Simulation:
         couplings = [TiedInterface(world)] if self.windows else []
         if rules.active:
             couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states)))
+        nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
+                                   grid, bodies, m_tiny)
         self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
                                make_scheme(config.time.scheme),
-                               self.refiner, m_tiny, [elements] if elements else [])
+                               self.refiner, m_tiny, [elements] if elements else [], nodes)
         self.decomposition.update_cell_ranges(self.kinds)
         self.loads = config.loads
         self.time, self.step_count = 0.0, 0

@@ -20,16 +20,20 @@ class Stepper:
     refiner : solver.refine.Refiner   windows that move, particles that split
     m_tiny : float   nodal mass below which a node counts as empty
     element_kinds : list of kinds with their own nodes (solver.fem_bodies.FemBodies):
-        stresses, forces and trial velocities when the grid integrates, positions when
-        the points move; not on the grid (no coupling yet)
+        stresses, forces and trial velocities before the grid's forces are summed,
+        positions when the points move
+    node_kinds : list of kinds that put element nodes on the grid as points
+        (solver.fem_grid.FemGridNodes, grid coupling): asked in the grid phases like
+        ``kinds``, but they neither migrate nor split
     """
 
     def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny,
-                 element_kinds=()):
+                 element_kinds=(), node_kinds=()):
         self.decomposition, self.grids = decomposition, grids
         self.kinds, self.couplings = list(kinds), list(couplings)
         self.scheme, self.refiner, self.m_tiny = scheme, refiner, m_tiny
         self.element_kinds = list(element_kinds)
+        self.grid_kinds = self.kinds + list(node_kinds)
         self.fastest = 0.0
 
     def step(self, dt):
@@ -50,9 +54,9 @@ class Stepper:
         (per-body contact fields)."""
         self.grids.zeros("nodal", mpm.NODAL_COMPONENTS)
         self.ask_kinds("scatter_mass_momentum")
-        self.ask_couplings("after_scatter", self.grids, self.kinds)
+        self.ask_couplings("after_scatter", self.grids, self.grid_kinds)
         self.grids.sum_shared("nodal")
-        self.ask_couplings("after_mass_sum", self.grids, self.kinds)
+        self.ask_couplings("after_mass_sum", self.grids, self.grid_kinds)
 
     def nodal_velocities(self):
         """Nodal velocities with the boundary conditions; slaves from masters (Eq. 22);
@@ -66,16 +70,26 @@ class Stepper:
         """USF: stress update and nodal forces on every level; slave forces to their
         masters (Eq. 18); the sums over shared slab planes."""
         self.grids.zeros("force", 3)
+        self.advance_elements(dt)
         self.fastest = self.ask_kinds_for_speed("stress_and_forces", dt)
         self.complete_forces()
 
-    def nodal_forces(self):
+    def nodal_forces(self, dt):
         """MUSL: nodal forces from the stresses of the start of the step (Eqs. 31-32)."""
         self.grids.zeros("force", 3)
+        self.advance_elements(dt)
         for s in self.grids:
-            for kind in self.kinds:
+            for kind in self.grid_kinds:
                 kind.scatter_forces(s, self.view(s))
         self.complete_forces()
+
+    def advance_elements(self, dt):
+        """Central differences on the FE nodes, from the nodes alone: element stresses,
+        nodal forces and trial velocities (seed 004 notes Sec. 1.5 step 4), before the
+        grid's forces are summed so that grid coupling can put them on the grid."""
+        for kind in self.element_kinds:
+            kind.stress_and_forces(dt)
+            kind.integrate(dt)
 
     def complete_forces(self):
         self.ask_couplings("after_forces", self.grids)
@@ -91,16 +105,14 @@ class Stepper:
         self.grids.empty("gnew", 6)
         for s in self.grids:
             mpm.integrate_nodes(s.nodal, s.force, s.gvel, dt, s.nodes, self.m_tiny, s.gnew)
-        for kind in self.element_kinds:       # central differences on the FE nodes
-            kind.stress_and_forces(dt)
-            kind.integrate(dt)
         self.ask_couplings("after_integrate", self.grids, dt)
 
     def update_points(self, dt):
-        """Grid to points: positions and velocities (Eqs. 15-16); FE nodes move with
-        their new half-step velocities."""
+        """Grid to points: positions and velocities (Eqs. 15-16); grid-coupled FE nodes
+        take their contact correction; FE nodes move with their new half-step
+        velocities."""
         for s in self.grids:
-            for kind in self.kinds:
+            for kind in self.grid_kinds:
                 kind.grid_to_points(s, dt, self.view(s))
         for kind in self.element_kinds:
             kind.move(dt)
@@ -108,7 +120,7 @@ class Stepper:
     # -- asking ------------------------------------------------------------------------
     def ask_kinds(self, phase):
         for s in self.grids:
-            for kind in self.kinds:
+            for kind in self.grid_kinds:
                 getattr(kind, phase)(s)
 
     def ask_kinds_for_speed(self, phase, dt):
@@ -116,7 +128,7 @@ class Stepper:
         as the speed that gives the same Courant number on the coarse grid."""
         fastest = 0.0
         for s in self.grids:
-            for kind in self.kinds:
+            for kind in self.grid_kinds:
                 fastest = max(fastest, getattr(kind, phase)(s, dt, self.view(s)))
         return fastest
 
