@@ -50,6 +50,7 @@ import numpy as np
 
 from ..comm.shared_nodes import exchange_objects, sum_shared_rows
 from ..kernels import contact as kc
+from ..materials import layout
 from ..kernels import fem_grid as kf
 from ..kernels import mpm, tied
 from ..kernels.records import PointState
@@ -172,6 +173,13 @@ class FemGridNodes:
 
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.pts, state.geometry, slot_of, cext, state.index)
+
+    def scatter_volumes(self, state, slot_of, cvol):
+        """The nodes' lumped volumes (mass over the body's initial density) for the volume
+        gap: the node sampling of the mesh's material, as hats sample particles."""
+        rho0 = self.elements.table.params[self.pts.body, layout.RHO0]
+        kc.contact_volumes(self.pts, self.pts.mass / rho0, state.geometry, slot_of, cvol,
+                           state.index)
 
     def stress_and_forces(self, state, dt, contact):
         """The nodes' forces f̃_K = m_K (v̄_K - v_K) / dt to the grid and their body's

@@ -1,0 +1,53 @@
+"""Two identical elastic spheres meeting head-on: Hertz's answer and the measured one.
+
+Each sphere has radius R, density rho, Young's modulus E, Poisson's ratio nu and speed v
+towards the other (relative speed 2v). Hertz (Johnson, Contact Mechanics, Sec. 11.4) with
+the effective radius R/2, modulus E / (2 (1 - nu^2)) and mass m/2 gives the largest
+approach of the centres, the peak force and the contact time. Units: mm, ms, g (force in
+N, energy in mJ = N mm).
+"""
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from .contact import read_history
+
+HertzAnswer = namedtuple("HertzAnswer", "mass approach force contact_time radius")
+
+
+def hertz_answer(radius, density, young, poisson, speed):
+    """Hertz's largest approach (mm), peak force (N), contact time (ms) and largest
+    contact radius (mm) for two identical spheres, each of mass ``mass`` (g)."""
+    mass = density * 4.0 / 3.0 * math.pi * radius ** 3
+    m_eff, r_eff = mass / 2.0, radius / 2.0
+    e_eff = young / (2.0 * (1.0 - poisson ** 2))
+    relative = 2.0 * speed
+    approach = (15.0 * m_eff * relative ** 2 / (16.0 * e_eff * math.sqrt(r_eff))) ** 0.4
+    force = 4.0 / 3.0 * e_eff * math.sqrt(r_eff) * approach ** 1.5
+    contact_time = 2.868 * (m_eff ** 2 / (r_eff * e_eff ** 2 * relative)) ** 0.2
+    return HertzAnswer(mass, approach, force, contact_time,
+                       math.sqrt(r_eff * approach))
+
+
+def hertz_measures(out_dir, answer, radius, lower="lower", upper="upper"):
+    """Peak force, contact time and largest approach of a run (history every step or
+    so), each as the ratio to ``answer``'s minus 1; also the rebound speed over the
+    impact speed and the change of the total energy. The force is the lower sphere's
+    mass times the rate of change of its mean velocity over a window of about 1/40 of
+    Hertz's contact time; contact lasts while that force exceeds 2 % of its peak; the
+    approach is 2 R less the distance between the centroids (the quarter or whole
+    spheres' centroids lie on the axis)."""
+    hist = read_history(out_dir)
+    t, v = hist["time"], hist[f"{lower}.vz"]
+    window = max(1, int(round(answer.contact_time / 40 / np.median(np.diff(t)))))
+    force = answer.mass * (v[window:] - v[:-window]) / (t[window:] - t[:-window])
+    mid = 0.5 * (t[window:] + t[:-window])
+    touching = np.flatnonzero(-force > 0.02 * (-force).max())
+    contact_time = mid[touching[-1]] - mid[touching[0]]
+    approach = 2.0 * radius - (hist[f"{upper}.z"] - hist[f"{lower}.z"])
+    return {"force": (-force).max() / answer.force - 1.0,
+            "contact_time": contact_time / answer.contact_time - 1.0,
+            "approach": approach.max() / answer.approach - 1.0,
+            "rebound": -v[-1] / v[0],
+            "energy": hist["total"][-1] / hist["total"][0] - 1.0}
