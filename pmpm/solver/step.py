@@ -21,7 +21,7 @@ class Stepper:
     m_tiny : float   nodal mass below which a node counts as empty
     element_kinds : list of kinds with their own nodes (solver.fem_bodies.FemBodies):
         stresses, forces and trial velocities when the grid integrates, positions when
-        the points move; not on the grid (no coupling yet)
+        the points move; met by particles through couplings (surface contact)
     """
 
     def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny,
@@ -98,12 +98,14 @@ class Stepper:
 
     def update_points(self, dt):
         """Grid to points: positions and velocities (Eqs. 15-16); FE nodes move with
-        their new half-step velocities."""
+        their new half-step velocities; then particle-to-surface contact corrects both
+        (seed 004 Sec. 3)."""
         for s in self.grids:
             for kind in self.kinds:
                 kind.grid_to_points(s, dt, self.view(s))
         for kind in self.element_kinds:
             kind.move(dt)
+        self.ask_couplings("after_update_points", dt)
 
     # -- asking ------------------------------------------------------------------------
     def ask_kinds(self, phase):
