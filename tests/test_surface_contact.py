@@ -1,6 +1,5 @@
 """Particle-to-surface contact (ICFEMP, seed 004 Sec. 3): the kernels (projection, impulse,
 buckets) and small coupled runs of particle blocks on an FEM plate."""
-import json
 import os
 
 import numpy as np
@@ -67,7 +66,7 @@ def one_pair(v_p, v_nodes, mu=0.3, m_p=2.0, masses=(1.0, 3.0, 2.0, 5.0), xi=(0.2
     inv_m = 1.0 / np.array(masses)
     impulse = np.empty(3)
     acts = ksc.pair_impulse(m_p, np.array(v_p, float), np.array(v_nodes, float), inv_m,
-                            phi, np.array([0.0, 0.0, 1.0]), mu, 0.0, impulse)
+                            phi, np.array([0.0, 0.0, 1.0]), mu, impulse)
     return acts, impulse, phi, inv_m
 
 
@@ -101,7 +100,7 @@ def test_a_rigid_master_takes_the_particle_to_its_velocity():
     impulse = np.empty(3)
     phi = np.full(4, 0.25)
     ksc.pair_impulse(2.0, np.array([0.0, 0.0, -1.0]), np.zeros((4, 3)), np.zeros(4), phi,
-                     np.array([0.0, 0.0, 1.0]), 0.0, 0.0, impulse)
+                     np.array([0.0, 0.0, 1.0]), 0.0, impulse)
     assert np.allclose(impulse, [0, 0, -2.0])           # m_p (v_p - v_c), m_c infinite
 
 
@@ -135,24 +134,6 @@ def test_buckets_find_every_segment_a_particle_can_touch():
 
 
 # -- coupled runs ----------------------------------------------------------------------
-def run_case(tmp_path, name, overrides=(), ranks=1):
-    """Run a test case; its summary and its output folder."""
-    import subprocess
-    import sys
-    out = tmp_path / name
-    cmd = [sys.executable, "-m", "pmpm", os.path.join(HERE, "cases", name + ".yaml"),
-           "--output", str(out)]
-    for item in overrides:
-        cmd += ["--set", item]
-    if ranks > 1:
-        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe"] + cmd
-    env = dict(os.environ, NUMBA_NUM_THREADS="1")
-    done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
-    assert done.returncode == 0, done.stderr[-3000:]
-    with open(out / "summary.json") as handle:
-        return json.load(handle), out
-
-
 def simulation(overrides=(), world=None):
     """The block-on-plate case set up in this process (one rank unless ``world``)."""
     from pmpm.case import fill_body
@@ -220,9 +201,9 @@ def test_a_block_thrown_at_a_free_plate_keeps_the_momentum_and_stays_out():
 def test_a_block_sliding_on_a_held_plate_decelerates_at_mu_g():
     """Gravity 10, the plate's bottom on the fixed face, mu 0.3, v0 = 1 m/s: the block's
     mean velocity follows v0 - mu g t (line fitted after it settles, t > 0.02 s: slope
-    within 3 % of mu g; every step within 7 % of v0; measured -0.06 % and 5.5 %: elastic
-    bodies on linear hats bump at cell crossings), and no particle centre sinks more than
-    a tenth of its spacing (0.001) into the plate."""
+    within 2 % of mu g; every step within 3 % of v0; measured +0.8 % and 2.0 % with
+    GIMP; linear hats bump at cell crossings, 5 %), and no particle centre gets into
+    the plate (measured: the lowest stay 2.4 mm, half their half-spacing, above it)."""
     mu, g = 0.3, 10.0
     sim = simulation([f"params.g={g}", "params.z_floor=0.0", "params.gap=0.0",
                       "params.vz=0.0", "params.vx=1.0", f"params.mu={mu}"])
@@ -238,6 +219,6 @@ def test_a_block_sliding_on_a_held_plate_decelerates_at_mu_g():
     run(sim, 0.2, every=record)
     times, vx = np.array(times), np.array(vx)
     settled = times > 0.02
-    assert np.polyfit(times[settled], vx[settled], 1)[0] == pytest.approx(-mu * g, rel=0.03)
-    assert np.abs(vx - (1.0 - mu * g * times)).max() < 0.07
-    assert min(gaps) > -0.001
+    assert np.polyfit(times[settled], vx[settled], 1)[0] == pytest.approx(-mu * g, rel=0.02)
+    assert np.abs(vx - (1.0 - mu * g * times)).max() < 0.03
+    assert min(gaps) > 0.0

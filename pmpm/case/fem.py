@@ -52,8 +52,9 @@ METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it i
               "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
               "holds its centroid; with a `rigid` material it moves with its velocity. FEM "
               "bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
-              "or symmetry face takes that condition) but are not yet coupled to particle "
-              "bodies: they pass through them")
+              "or symmetry face takes that condition) and meet particle bodies as "
+              "contact.coupling says (`surface`, ICFEMP: the particles are kept out of the "
+              "body's free element faces, with the pair's Coulomb friction)")
 
 
 def check_fem_bodies(case, case_dir, check_geometry, problems):

@@ -173,16 +173,13 @@ def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_siz
 
 
 @njit(cache=True)
-def pair_impulse(m_p, v_p, v_nodes, inv_m_nodes, phi, n, mu, closing, impulse):
+def pair_impulse(m_p, v_p, v_nodes, inv_m_nodes, phi, n, mu, impulse):
     """The impulse I_c = f_c dt on the contact point C of one pair (the particle takes
     -I_c). Stick (Eqs. 42, 44, 47 with f_p = -f_c): v_p + dt f_p/m_p = v_c + dt f_c/m_c
     gives f_c dt = m_p m_c (v̄_p - v̄_c)/(m_p + m_c), v̄_c = sum phi_J v̄_J (Eq. 45),
     1/m_c = sum phi_J^2 / m_J (Eq. 49; ``inv_m_nodes`` 0 for a rigid or held node).
     Split along n (Eqs. 50-51), tangent capped at mu |normal| (Eq. 52). Nothing when the
-    pair separates, (v̄_p - v̄_c).n >= 0. ``closing`` (<= 0, a velocity) is added to the
-    normal approach of a pair that acts: the gap closure that pushes out a particle
-    centre found inside the face (the velocity constraint alone would keep it there).
-    Returns whether an impulse acts."""
+    pair separates, (v̄_p - v̄_c).n >= 0. Returns whether an impulse acts."""
     inv_mc = 0.0
     for j in range(4):
         inv_mc += phi[j] * phi[j] * inv_m_nodes[j]
@@ -197,7 +194,7 @@ def pair_impulse(m_p, v_p, v_nodes, inv_m_nodes, phi, n, mu, closing, impulse):
         impulse[:] = 0.0
         return False
     scale = m_p / (1.0 + m_p * inv_mc)            # m_p m_c / (m_p + m_c)
-    normal = scale * (approach + closing)
+    normal = scale * approach
     tangent_norm = 0.0
     for d in range(3):
         impulse[d] = scale * (rel[d] - approach * n[d])
@@ -212,14 +209,12 @@ def pair_impulse(m_p, v_p, v_nodes, inv_m_nodes, phi, n, mu, closing, impulse):
 
 @njit(cache=True)
 def pair_impulses(pair_p, pair_s, pair_geo, mass, v, pbody, seg_v, seg_inv_m, seg_body,
-                  friction, beta, dt, impulses):
+                  friction, impulses):
     """``impulses[k]`` (3): the impulse on C of pair k (particle ``pair_p[k]``, segment
-    ``pair_s[k]``); zero for a separating pair. A pair whose particle centre is inside
-    (g < 0) also closes ``beta`` of that gap in the step: closing = beta g / dt."""
+    ``pair_s[k]``); zero for a separating pair."""
     phi = np.empty(4)
     for k in range(len(pair_p)):
         p, s = pair_p[k], pair_s[k]
         face_shapes(pair_geo[k, 0], pair_geo[k, 1], phi)
         pair_impulse(mass[p], v[p], seg_v[s], seg_inv_m[s], phi, pair_geo[k, 2:5],
-                     friction[pbody[p], seg_body[s]], beta * min(pair_geo[k, 5], 0.0) / dt,
-                     impulses[k])
+                     friction[pbody[p], seg_body[s]], impulses[k])

@@ -11,7 +11,8 @@ In each step, from the positions x^k and the velocities v^(k-1/2):
   nodes that lie on them;
 * ``move``: x^(k+1) = x^k + dt v^(k+1/2).
 
-No coupling to particles yet (CFEMP, ICFEMP). Over MPI an element belongs to the rank
+Particle bodies meet them by surface contact (ICFEMP, pmpm.solver.surface_contact), which
+corrects the nodes' velocities and positions after ``move``. Over MPI an element belongs to the rank
 whose slab holds its centroid; it moves there with its state and its nodes when the
 decomposition checks its balance (the elements are not on the grid yet, so where they
 live changes no answer, only the balance); the forces of the nodes that several ranks
