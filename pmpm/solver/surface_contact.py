@@ -215,7 +215,8 @@ class SurfaceContact(Coupling):
 
     def push_nodes(self, segs, pair_p, pair_s, phi, impulses, dt):
         """The node impulses phi_J I to every holder of node J, summed there in (node id,
-        particle id) order; velocities and positions of the free components move."""
+        particle id) order; velocities and positions of the free components move (not
+        those the constraints or the grid faces hold)."""
         fem, p = self.elements, self.points.particles
         gid = segs["gid"][pair_s].ravel()
         pid = np.repeat(p.id[pair_p], 4)
@@ -233,9 +234,10 @@ class SurfaceContact(Coupling):
         np.add.at(total, local, rows[order])
         total[fem.fixed] = 0.0
         total[fem.rigid_nodes()] = 0.0
-        dv = total / fem.mass[:, None]
-        fem.v += dv
-        fem.x += dt * dv
+        before = fem.v.copy()
+        fem.v += total / fem.mass[:, None]
+        fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
+        fem.x += dt * (fem.v - before)
 
 
 def approach_depth(geo):
