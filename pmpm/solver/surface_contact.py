@@ -57,6 +57,8 @@ from .couplings import Coupling
 #: the share of a particle centre's depth inside a face that its pair closes in a step,
 #: by moving the particle's position out (not its velocity: no energy, no momentum)
 GAP_CLOSURE = 0.5
+#: the most buckets of the global search (their size grows beyond a face's to keep to it)
+MAX_BUCKETS = 2 ** 21
 SEGMENT_FIELDS = ("gid", "x", "v", "inv_m", "body", "key", "holders")
 
 
@@ -153,13 +155,19 @@ class SurfaceContact(Coupling):
         ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
                           segs["v"], segs["inv_m"] * counts, segs["body"], self.friction,
                           impulses)
-        share = (impulses / p.mass[pair_p, None])
+        self.push_particles(pair_p, geo, impulses, dt)
+        self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
+        self.last_pairs = len(pair_p)
+
+    def push_particles(self, pair_p, geo, impulses, dt):
+        """Each pair's particle takes -I on its velocity and -dt I/m_p on its position;
+        a centre found inside its face moves out by GAP_CLOSURE of its depth."""
+        p = self.points.particles
+        share = impulses / p.mass[pair_p, None]
         p.v[pair_p] -= share
         p.x[pair_p] -= dt * share
         inside = approach_depth(geo)
         p.x[pair_p] += GAP_CLOSURE * inside[:, None] * geo[:, 2:5]
-        self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
-        self.last_pairs = len(pair_p)
         self.largest_penetration = float(inside.max()) if len(geo) else 0.0
 
     def find_pairs(self, segs):
@@ -173,7 +181,7 @@ class SurfaceContact(Coupling):
         lo = seg_lo.min(axis=0)
         edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
         extent = seg_hi.max(axis=0) - lo
-        size = max(edge, 2.0 * self.reach, float(extent.max()) / 256.0)
+        size = max(edge, 2.0 * self.reach, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
         dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
         start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
         slave = self.touches[p.body].any(axis=1)
