@@ -229,3 +229,17 @@ def test_a_block_sliding_on_a_held_plate_decelerates_at_mu_g():
     assert np.polyfit(times[settled], vx[settled], 1)[0] == pytest.approx(-mu * g, rel=0.02)
     assert np.abs(vx - (1.0 - mu * g * times)).max() < 0.03
     assert min(gaps) > 0.0
+
+
+def test_a_rigid_fem_plate_takes_nothing_and_stops_the_block():
+    """Material rigid: the plate keeps its (zero) velocity and its nodes their places
+    exactly; the block's normal approach is stopped (m_c infinite: the particles take
+    the plate's normal velocity) and no centre gets in."""
+    sim = simulation(["materials.plate={model: rigid, density: 2000.0}"])
+    x0 = sim.elements.x.copy()
+    worst = []
+    run(sim, 0.02, every=lambda s: worst.append(top_gaps(s).min()))
+    assert not sim.elements.v.any() and (sim.elements.x == x0).all()
+    block = sim.particles.body == 1
+    assert sim.particles.v[block, 2].mean() > -0.2      # from -2 m/s
+    assert min(worst) > 0.0
