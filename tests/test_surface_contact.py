@@ -261,3 +261,20 @@ def test_many_particles_on_a_light_plate_do_not_over_correct_it():
     run(sim, 0.012, every=watch)
     pairs, fastest_node = first[0]
     assert pairs >= 64 and -2.0 < fastest_node < -1.0
+
+
+def test_a_restart_during_contact_ends_where_the_uninterrupted_run_does(tmp_path):
+    """Stopped at 15 ms, just after the impact, and continued from the
+    checkpoint: the faces are found again from the checkpoint's elements and the last
+    history row is the uninterrupted run's, bit for bit."""
+    from clihelp import pmpm, read_history
+    case = os.path.join(HERE, "cases", "block_on_fem_plate.yaml")
+    whole, split = tmp_path / "whole", tmp_path / "split"
+    stop = ["--set", "time.end=0.015", "--set", "output.frames=1"]
+    for args in ([case, "--out", whole], [case, "--out", split] + stop,
+                 [case, "--out", split, "--restart"]):
+        done = pmpm(args + ["--quiet"], timeout=120)
+        assert done.returncode == 0, done.stderr
+    (header, one), (_, two) = read_history(whole), read_history(split)
+    assert one[-1, header.index("time")] == 0.03
+    assert (one[-1] == two[-1]).all()
