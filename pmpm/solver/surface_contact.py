@@ -97,7 +97,9 @@ class SurfaceContact(Coupling):
     def refresh_faces(self):
         """The free faces of this rank's elements of master bodies (collective among the
         ranks that share nodes): ``face_nodes`` (nf, 4) local node indices, ``face_key``
-        element id * 6 + face; and each local node's holders (ranks, padded with -1)."""
+        element id * 6 + face; and each local node's holders (ranks, padded with -1).
+        Every rank calls it again whenever the elements it holds change (migration, and
+        elements removed or converted: a face whose neighbour is gone becomes free)."""
         fem = self.elements
         faces = fem.hexes[:, FACES].reshape(-1, 4)
         key = (fem.element_id[:, None] * 6 + np.arange(6)).ravel().astype(np.int64)
