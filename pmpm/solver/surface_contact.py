@@ -44,7 +44,10 @@ migrate), overlaps another rank's slab to that rank (a halo; no global gather). 
 is computed on the particle's owner. The pair counts of nodes go to the node's lowest
 holder and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
-and 1 rank agrees with N to round-off.
+and 1 rank agrees with N to round-off. The three messages of a step (halo, counts and
+their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
+exchange_objects), simple rather than fast; neighbour messages would do for slabs wider
+than the elements.
 """
 import numpy as np
 
