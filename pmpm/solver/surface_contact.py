@@ -44,7 +44,7 @@ migrate), overlaps another rank's slab to that rank (a halo; no global gather). 
 is computed on the particle's owner. The pair counts of nodes go to the node's lowest
 holder and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
-and 1 rank agrees with N to round-off. The three messages of a step (halo, counts and
+and 1 rank agrees with N to round-off. The four messages of a step (halo, counts and
 their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
 exchange_objects), simple rather than fast; neighbour messages would do for slabs wider
 than the elements.
@@ -87,10 +87,10 @@ class SurfaceContact(Coupling):
         rigid = np.asarray(points.bodies.rigid, bool)
         self.touches = (rules.coupling == SURFACE_COUPLING) & ~fem[:, None] & fem[None, :] \
             & ~rigid[:, None]
-        self.masters = self.touches.any(axis=0)
+        self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
         self.friction = np.ascontiguousarray(rules.friction, np.float64)
         p = points.particles
-        slave = self.touches[p.body].any(axis=1) if p.n else np.zeros(0, bool)
+        slave = self.slave_bodies[p.body]
         local = float(half_spacing(p.vol0[slave]).max()) if slave.any() else 0.0
         self.reach = 2.0 * world.max(local)
         self.last_pairs, self.largest_penetration = 0, 0.0
@@ -189,8 +189,7 @@ class SurfaceContact(Coupling):
         size = max(edge, 2.0 * self.reach, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
         dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
         start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
-        slave = self.touches[p.body].any(axis=1)
-        radius = np.where(slave, half_spacing(p.vol0), 0.0)
+        radius = np.where(self.slave_bodies[p.body], half_spacing(p.vol0), 0.0)
         pair_seg, geo = np.empty(p.n, np.int64), np.empty((p.n, 6))
         ksc.find_pairs(p.x, p.body.astype(np.int64), radius, x, segs["body"], segs["key"],
                        self.touches, lo, 1.0 / size, dims, start, items, pair_seg, geo)
