@@ -69,8 +69,9 @@ COUPLINGS = ("surface", "grid")
 GAP_MEASURES = ("reach", "volume")
 COUPLING_DOC = ("how an FEM body and a particle body meet (seed 004): `surface` (ICFEMP, "
                 "Sec. 3): the FEM body's free element faces are master segments and the "
-                "particles are kept out of them by a velocity constraint with Coulomb "
-                "friction, whatever the element size; `grid` (CFEMP, Sec. 2.4): the FE nodes "
+                "particles (each a sphere of half its spacing) are kept out of them by a "
+                "velocity constraint with the pair's Coulomb friction, whatever the element "
+                "size and with any contact.method; `grid` (CFEMP, Sec. 2.4): the FE nodes "
                 "join the multi-velocity grid contact as particles of their body (needs "
                 "method 1 or 2, and elements about the size of a cell)")
 PAIR = {

@@ -2,11 +2,12 @@
 
 A coupling answers the step's hooks (all optional, in step order):
 ``after_scatter`` (before the shared-plane sums of mass and momentum),
-``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums) and
-``after_integrate``; and gives the point kernels its ``view`` of a level (None: the point
-kernels see the one shared field). Today: the tied interface between refined windows and
-the coarse grid (seed 000 Sec. 3) and multi-velocity grid contact (seed 001,
-``pmpm.solver.contact``).
+``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums),
+``after_integrate`` and ``after_update_points`` (the points and FE nodes have moved);
+and gives the point kernels its ``view`` of a level (None: the point kernels see the one
+shared field). Today: the tied interface between refined windows and the coarse grid
+(seed 000 Sec. 3), multi-velocity grid contact (seed 001, ``pmpm.solver.contact``) and
+particle-to-surface contact with FEM bodies (seed 004, ``pmpm.solver.surface_contact``).
 """
 import numpy as np
 
@@ -31,6 +32,9 @@ class Coupling:
         pass
 
     def after_integrate(self, grids, dt):
+        pass
+
+    def after_update_points(self, dt):
         pass
 
     def view(self, state):

@@ -21,6 +21,9 @@ ranks hold its elements, so where elements live changes no answer, only the bala
 the forces of the nodes that several ranks hold are summed over them in rank order
 (pmpm.comm.shared_nodes), so every copy of a node moves the same and 1 rank agrees with
 N to round-off.
+Particle bodies with surface coupling meet them through ICFEMP
+(pmpm.solver.surface_contact), which corrects the nodes' velocities and positions after
+``move``.
 """
 import os
 from collections import namedtuple

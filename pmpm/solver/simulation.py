@@ -7,7 +7,7 @@ from ..grid import CoarseGrid, Level, Window
 from ..kernels.shape import HALO, SHAPE_CODES
 from ..particles import Particles
 from .bodies import BodyTable, assign_loads, build_particles, fill_positions
-from .contact import ContactRules, GridContact
+from .contact import SURFACE_COUPLING, ContactRules, GridContact
 from .couplings import TiedInterface
 from .decomposition import Decomposition
 from .energy import gravitational_potential, load_power
@@ -20,6 +20,7 @@ from .particle_bodies import ParticleBodies
 from .refine import Refiner
 from .schemes import make_scheme
 from .step import Stepper
+from .surface_contact import SurfaceContact
 
 
 class Simulation:
@@ -55,6 +56,11 @@ class Simulation:
             couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states)))
         nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
                                    grid, bodies, m_tiny)
+        self.surface = None
+        if elements and (rules.coupling == SURFACE_COUPLING).any():
+            self.surface = SurfaceContact(rules, world, self.points, elements, grid,
+                                          self.decomposition)
+            couplings.append(self.surface)
         self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
                                make_scheme(config.time.scheme),
                                self.refiner, m_tiny, [elements] if elements else [], nodes)
@@ -169,7 +175,8 @@ class Simulation:
         if not self.elements:
             return self.decomposition.rebalance(threshold, self.kinds)
         result = self.decomposition.rebalance(threshold, self.kinds, [self.elements])
-        self.elements.migrate(self.grid, self.slabs)
+        if self.elements.migrate(self.grid, self.slabs) and self.surface:
+            self.surface.refresh_faces()      # the faces of the elements now held here
         return result
 
     def restart_state(self):

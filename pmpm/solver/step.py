@@ -21,7 +21,8 @@ class Stepper:
     m_tiny : float   nodal mass below which a node counts as empty
     element_kinds : list of kinds with their own nodes (solver.fem_bodies.FemBodies):
         stresses, forces and trial velocities before the grid's forces are summed,
-        positions when the points move
+        positions when the points move; met by particles through the grid (node_kinds)
+        or through couplings (surface contact)
     node_kinds : list of kinds that put element nodes on the grid as points
         (solver.fem_grid.FemGridNodes, grid coupling): asked in the grid phases like
         ``kinds``, but they neither migrate nor split
@@ -110,12 +111,13 @@ class Stepper:
     def update_points(self, dt):
         """Grid to points: positions and velocities (Eqs. 15-16); grid-coupled FE nodes
         take their contact correction; FE nodes move with their new half-step
-        velocities."""
+        velocities; then particle-to-surface contact corrects both (seed 004 Sec. 3)."""
         for s in self.grids:
             for kind in self.grid_kinds:
                 kind.grid_to_points(s, dt, self.view(s))
         for kind in self.element_kinds:
             kind.move(dt)
+        self.ask_couplings("after_update_points", dt)
 
     # -- asking ------------------------------------------------------------------------
     def ask_kinds(self, phase):

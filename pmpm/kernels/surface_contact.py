@@ -1,0 +1,220 @@
+"""Particle-to-surface contact (ICFEMP, seed 004 Sec. 3): the loops over particles and
+master segments (bilinear faces of FE elements), free of MPI and of the case.
+
+* ``bucket_segments``: the global search's buckets (Eqs. 33-35), each segment entered in
+  every bucket its inflated bounding box overlaps;
+* ``closest_point``: the local search (Eqs. 36-41), the closest point of a bilinear face by
+  Newton, its outward unit normal and the gap;
+* ``find_pairs``: per particle its nearest segment, among those of its buckets, that it
+  touches;
+* ``pair_impulses``: per pair the stick impulse with Coulomb's cap (Eqs. 42-53).
+
+A face's nodes 0-3 sit at (xi, eta) = (-1,-1), (1,-1), (1,1), (-1,1), counter-clockwise
+seen from outside (pmpm.fem.hexahedron.FACES), so r_xi x r_eta points out of the body.
+"""
+import numpy as np
+from numba import njit
+
+
+XI = np.array([-1.0, 1.0, 1.0, -1.0])
+ETA = np.array([-1.0, -1.0, 1.0, 1.0])
+NEWTON_STEPS = 25
+
+
+@njit(cache=True)
+def face_shapes(xi, eta, phi):
+    """phi_J = (1 + xi_J xi)(1 + eta_J eta) / 4 (Eq. 37)."""
+    for j in range(4):
+        phi[j] = 0.25 * (1.0 + XI[j] * xi) * (1.0 + ETA[j] * eta)
+
+
+@njit(cache=True)
+def face_point(xf, xi, eta, r, r_xi, r_eta):
+    """r(xi, eta) (Eq. 36) and its two tangents."""
+    for d in range(3):
+        r[d] = r_xi[d] = r_eta[d] = 0.0
+        for j in range(4):
+            phi = 0.25 * (1.0 + XI[j] * xi) * (1.0 + ETA[j] * eta)
+            r[d] += phi * xf[j, d]
+            r_xi[d] += 0.25 * XI[j] * (1.0 + ETA[j] * eta) * xf[j, d]
+            r_eta[d] += 0.25 * ETA[j] * (1.0 + XI[j] * xi) * xf[j, d]
+
+
+@njit(cache=True)
+def closest_point(xf, t, out):
+    """The point of the bilinear face ``xf`` (4, 3) closest to ``t`` (Eqs. 38-39:
+    r_xi.(t - r) = r_eta.(t - r) = 0 by Newton from the centre, the iterate kept within
+    [-1, 1]^2, so that a point beyond an edge lands on the edge). Fills ``out`` with xi,
+    eta, the outward unit normal at that point (Eq. 41) and returns the gap
+    g = n.(t - r_c) (Eq. 40) and the in-plane distance of t from r_c."""
+    r, r_xi, r_eta = np.empty(3), np.empty(3), np.empty(3)
+    r_xe = np.empty(3)
+    for d in range(3):
+        r_xe[d] = 0.25 * (xf[0, d] - xf[1, d] + xf[2, d] - xf[3, d])
+    xi = eta = 0.0
+    for _ in range(NEWTON_STEPS):
+        face_point(xf, xi, eta, r, r_xi, r_eta)
+        f0 = f1 = a00 = a01 = a11 = 0.0
+        for d in range(3):
+            e = t[d] - r[d]
+            f0 += r_xi[d] * e
+            f1 += r_eta[d] * e
+            a00 += r_xi[d] * r_xi[d]
+            a11 += r_eta[d] * r_eta[d]
+            a01 += r_xi[d] * r_eta[d] - r_xe[d] * e
+        det = a00 * a11 - a01 * a01
+        if det <= 0.0:                 # far from a strongly warped face: plain gradient
+            det, a01 = a00 * a11, 0.0
+        dxi = (a11 * f0 - a01 * f1) / det
+        deta = (a00 * f1 - a01 * f0) / det
+        new_xi = min(1.0, max(-1.0, xi + dxi))
+        new_eta = min(1.0, max(-1.0, eta + deta))
+        moved = abs(new_xi - xi) + abs(new_eta - eta)
+        xi, eta = new_xi, new_eta
+        if moved < 1e-13:
+            break
+    face_point(xf, xi, eta, r, r_xi, r_eta)
+    n0 = r_xi[1] * r_eta[2] - r_xi[2] * r_eta[1]
+    n1 = r_xi[2] * r_eta[0] - r_xi[0] * r_eta[2]
+    n2 = r_xi[0] * r_eta[1] - r_xi[1] * r_eta[0]
+    norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    n0, n1, n2 = n0 / norm, n1 / norm, n2 / norm
+    e0, e1, e2 = t[0] - r[0], t[1] - r[1], t[2] - r[2]
+    g = n0 * e0 + n1 * e1 + n2 * e2
+    s0, s1, s2 = e0 - g * n0, e1 - g * n1, e2 - g * n2
+    out[0], out[1], out[2], out[3], out[4] = xi, eta, n0, n1, n2
+    return g, np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+
+
+@njit(cache=True)
+def bucket_of(x, lo, inv_size, dims):
+    """Eqs. 33-35: the bucket index of ``x``, -1 outside the bucket box."""
+    index = 0
+    for d in (2, 1, 0):
+        c = int(np.floor((x[d] - lo[d]) * inv_size))
+        if c < 0 or c >= dims[d]:
+            return -1
+        index = index * dims[d] + c
+    return index
+
+
+@njit(cache=True)
+def bucket_range(seg_lo, seg_hi, s, lo, inv_size, dims, c0, c1):
+    """The first and last bucket along each axis that segment s's box overlaps."""
+    for d in range(3):
+        c0[d] = max(0, int(np.floor((seg_lo[s, d] - lo[d]) * inv_size)))
+        c1[d] = min(dims[d] - 1, int(np.floor((seg_hi[s, d] - lo[d]) * inv_size)))
+
+
+@njit(cache=True)
+def bucket_segments(seg_lo, seg_hi, lo, inv_size, dims):
+    """CSR lists (start, items) of the segments of every bucket: a segment is entered in
+    each bucket its box [seg_lo, seg_hi] (already inflated) overlaps."""
+    n_buckets = dims[0] * dims[1] * dims[2]
+    start = np.zeros(n_buckets + 1, np.int64)
+    c0, c1 = np.empty(3, np.int64), np.empty(3, np.int64)
+    for s in range(len(seg_lo)):
+        bucket_range(seg_lo, seg_hi, s, lo, inv_size, dims, c0, c1)
+        for k in range(c0[2], c1[2] + 1):
+            for j in range(c0[1], c1[1] + 1):
+                for i in range(c0[0], c1[0] + 1):
+                    start[(k * dims[1] + j) * dims[0] + i + 1] += 1
+    for b in range(n_buckets):
+        start[b + 1] += start[b]
+    items = np.empty(start[n_buckets], np.int64)
+    fill = start[:n_buckets].copy()
+    for s in range(len(seg_lo)):
+        bucket_range(seg_lo, seg_hi, s, lo, inv_size, dims, c0, c1)
+        for k in range(c0[2], c1[2] + 1):
+            for j in range(c0[1], c1[1] + 1):
+                for i in range(c0[0], c1[0] + 1):
+                    b = (k * dims[1] + j) * dims[0] + i
+                    items[fill[b]] = s
+                    fill[b] += 1
+    return start, items
+
+
+@njit(cache=True)
+def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_size, dims,
+               start, items, pair_seg, pair_geo):
+    """Per particle p its segment: among the segments of its bucket whose body it
+    ``touches[pbody, seg_body]``, those it is in contact with, g < radius[p] (the particle
+    a sphere of half its spacing) and g > -radius[p] (its centre not further in, which
+    rules out the far faces of the body), with the closest point at most radius[p] from
+    the foot of the normal (so a particle beside an edge meets the side face); of those
+    the nearest, ties to the smaller segment key (the same on any rank count).
+    ``pair_seg[p]``: the segment index or -1; ``pair_geo[p]``: xi, eta, n (3), g.
+    Returns the number of pairs."""
+    out = np.empty(5)
+    n_pairs = 0
+    for p in range(len(px)):
+        pair_seg[p] = -1
+        b = bucket_of(px[p], lo, inv_size, dims)
+        if b < 0:
+            continue
+        best, best_key = np.inf, -1
+        for k in range(start[b], start[b + 1]):
+            s = items[k]
+            if not touches[pbody[p], seg_body[s]]:
+                continue
+            g, off = closest_point(seg_x[s], px[p], out)
+            if g >= radius[p] or g <= -radius[p] or off > radius[p]:
+                continue
+            dist = g * g + off * off
+            if dist < best or (dist == best and seg_key[s] < best_key):
+                best, best_key = dist, seg_key[s]
+                pair_seg[p] = s
+                for c in range(5):
+                    pair_geo[p, c] = out[c]
+                pair_geo[p, 5] = g
+        if pair_seg[p] >= 0:
+            n_pairs += 1
+    return n_pairs
+
+
+@njit(cache=True)
+def pair_impulse(m_p, v_p, v_nodes, inv_m_nodes, phi, n, mu, impulse):
+    """The impulse I_c = f_c dt on the contact point C of one pair (the particle takes
+    -I_c). Stick (Eqs. 42, 44, 47 with f_p = -f_c): v_p + dt f_p/m_p = v_c + dt f_c/m_c
+    gives f_c dt = m_p m_c (v̄_p - v̄_c)/(m_p + m_c), v̄_c = sum phi_J v̄_J (Eq. 45),
+    1/m_c = sum phi_J^2 / m_J (Eq. 49; ``inv_m_nodes`` 0 for a rigid or held node).
+    Split along n (Eqs. 50-51), tangent capped at mu |normal| (Eq. 52). Nothing when the
+    pair separates, (v̄_p - v̄_c).n >= 0. Returns whether an impulse acts."""
+    inv_mc = 0.0
+    for j in range(4):
+        inv_mc += phi[j] * phi[j] * inv_m_nodes[j]
+    rel = np.empty(3)
+    for d in range(3):
+        vc = 0.0
+        for j in range(4):
+            vc += phi[j] * v_nodes[j, d]
+        rel[d] = v_p[d] - vc
+    approach = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
+    if approach >= 0.0:
+        impulse[:] = 0.0
+        return False
+    scale = m_p / (1.0 + m_p * inv_mc)            # m_p m_c / (m_p + m_c)
+    normal = scale * approach
+    tangent_norm = 0.0
+    for d in range(3):
+        impulse[d] = scale * (rel[d] - approach * n[d])
+        tangent_norm += impulse[d] * impulse[d]
+    tangent_norm = np.sqrt(tangent_norm)
+    cap = mu * abs(normal)
+    factor = cap / tangent_norm if tangent_norm > cap else 1.0
+    for d in range(3):
+        impulse[d] = normal * n[d] + factor * impulse[d]
+    return True
+
+
+@njit(cache=True)
+def pair_impulses(pair_p, pair_s, pair_geo, mass, v, pbody, seg_v, seg_inv_m, seg_body,
+                  friction, impulses):
+    """``impulses[k]`` (3): the impulse on C of pair k (particle ``pair_p[k]``, segment
+    ``pair_s[k]``); zero for a separating pair."""
+    phi = np.empty(4)
+    for k in range(len(pair_p)):
+        p, s = pair_p[k], pair_s[k]
+        face_shapes(pair_geo[k, 0], pair_geo[k, 1], phi)
+        pair_impulse(mass[p], v[p], seg_v[s], seg_inv_m[s], phi, pair_geo[k, 2:5],
+                     friction[pbody[p], seg_body[s]], impulses[k])

@@ -1,0 +1,316 @@
+"""ICFEMP (seed 004 Sec. 3, Eqs. 33-54): particles kept out of the free faces of FEM
+bodies by a velocity (Lagrange multiplier) constraint with Coulomb friction.
+
+The coupling acts once per step, after the grid and the FE nodes are integrated and the
+particles have taken their grid-to-particle update (``after_update_points``): the
+particles' FLIP velocities are the trial velocities v̄_p (Eq. 43), the FE nodes' new
+half-step velocities the trial v̄_J, and both have moved to their trial positions.
+
+* Master segments: the free faces (faces of exactly one element, found from the
+  connectivity and, over MPI, the sharers' candidate faces: :meth:`refresh_faces`) of the
+  FEM bodies a particle body meets with SURFACE_COUPLING; the particles are the slaves.
+  Rigid particle bodies take no part.
+* Global search (Eqs. 33-35), every step: each segment is entered in the buckets its box,
+  inflated by ``reach`` (twice the largest particle half-spacing), overlaps; a particle
+  looks only at the segments of its own bucket. Nothing is missed: a segment the particle
+  can touch (below) has the particle inside its inflated box.
+* Local search (Eqs. 36-41): the closest point of the bilinear face by Newton, the
+  outward normal n and the gap g = n.(x_p - r_c) at the trial positions.
+* Contact rule: the particle is a sphere of half its spacing r_p = vol0^(1/3) / 2; it is
+  in contact with the nearest face for which -r_p < g < r_p and the closest point lies
+  within r_p of the foot of the normal, and the pair is corrected only when it approaches,
+  (v̄_p - v̄_c).n < 0. The velocity constraint stops the approach but does not undo a
+  depth already reached (positions follow the grid velocities, which the constraint does
+  not see), so a pair whose particle centre is inside (g < 0) also moves the particle's
+  position out by GAP_CLOSURE of that depth per step (the notes' gap closure, done on the
+  position only: as a velocity it made a resting sphere bounce). Tests check that the
+  centres stay out of the plate, hit at 2 m/s or sliding on it under gravity.
+* Impulse (Eqs. 42-53): the stick impulse with Coulomb's cap (pmpm.kernels.
+  surface_contact.pair_impulse). The particle takes -I on its velocity and dt (-I)/m_p on
+  its position (the notes' option (b)); each FE node J of the face takes phi_J I on its
+  velocity and dt phi_J I/m_J on its position; rigid FEM bodies and held node components
+  take nothing. Pairs are solved at once (Jacobi); so that many particles on one light
+  face do not over-correct it, a node touched by n_J pairs lends each of them m_J / n_J
+  (1/m_c = sum phi_J^2 n_J / m_J): the particles share the node's mass, and momentum
+  stays exact since every node still takes the full sum of its impulses.
+* Energy: the impulses only take kinetic energy out (the normal impulse is perfectly
+  inelastic, friction dissipates), so the energy balance (solver.energy) falls through
+  contact; the gap closure's position shifts are not counted (in the sphere runs of
+  docs/validation/sphere_rolling_fem.md the balance rises at most 2 %, while the soft
+  sphere settles).
+
+MPI: elements (and so segments) live on the rank of their centroid's slab, particles on
+the rank of their position's slab. Each step a rank sends copies of its segments whose
+box, inflated by ``reach`` and one cell (particles move less than a cell before they
+migrate), overlaps another rank's slab to that rank (a halo; no global gather). Each pair
+is computed on the particle's owner. The pair counts of nodes go to the node's lowest
+holder and back; the node impulses go to every rank that holds the node, where they are
+summed in (node id, particle id) order: every copy of a shared node takes the same total,
+and 1 rank agrees with N to round-off. The four messages of a step (halo, counts and
+their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
+exchange_objects), simple rather than fast; neighbour messages would do for slabs wider
+than the elements.
+"""
+import numpy as np
+
+from ..comm.shared_nodes import exchange_objects, swap_with
+from ..fem.hexahedron import FACES
+from ..kernels import surface_contact as ksc
+from .contact import SURFACE_COUPLING
+from .couplings import Coupling
+
+#: the share of a particle centre's depth inside a face that its pair closes in a step,
+#: by moving the particle's position out (not its velocity: no energy, no momentum)
+GAP_CLOSURE = 0.5
+#: the most buckets of the global search (their size grows beyond a face's to keep to it)
+MAX_BUCKETS = 2 ** 21
+SEGMENT_FIELDS = ("gid", "x", "v", "inv_m", "body", "key", "holders")
+
+
+class SurfaceContact(Coupling):
+    """Particle-to-surface contact of the particle bodies and FEM bodies that meet with
+    SURFACE_COUPLING.
+
+    Parameters
+    ----------
+    rules : solver.contact.ContactRules   ``coupling`` and ``friction`` per pair
+    world : comm.World
+    points : solver.particle_bodies.ParticleBodies
+    elements : solver.fem_bodies.FemBodies
+    grid : grid.CoarseGrid   (origin, cell) for the slabs' extents
+    decomposition : solver.decomposition.Decomposition   the current slabs
+    """
+
+    def __init__(self, rules, world, points, elements, grid, decomposition):
+        self.world, self.points, self.elements = world, points, elements
+        self.grid, self.decomposition = grid, decomposition
+        fem = np.zeros(len(rules.coupling), bool)
+        fem[elements.body_indices] = True
+        rigid = np.asarray(points.bodies.rigid, bool)
+        self.touches = (rules.coupling == SURFACE_COUPLING) & ~fem[:, None] & fem[None, :] \
+            & ~rigid[:, None]
+        self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
+        self.friction = np.ascontiguousarray(rules.friction, np.float64)
+        p = points.particles
+        slave = self.slave_bodies[p.body]
+        local = float(half_spacing(p.vol0[slave]).max()) if slave.any() else 0.0
+        self.reach = 2.0 * world.max(local)
+        self.last_pairs, self.largest_penetration = 0, 0.0
+        self.refresh_faces()
+
+    # -- the master segments --------------------------------------------------------
+    def refresh_faces(self):
+        """The free faces of this rank's elements of master bodies (collective among the
+        ranks that share nodes): ``face_nodes`` (nf, 4) local node indices, ``face_key``
+        element id * 6 + face; and each local node's holders (ranks, padded with -1).
+        Every rank calls it again whenever the elements it holds change (migration, and
+        elements removed or converted: a face whose neighbour is gone becomes free)."""
+        fem = self.elements
+        faces = fem.hexes[:, FACES].reshape(-1, 4)
+        key = (fem.element_id[:, None] * 6 + np.arange(6)).ravel().astype(np.int64)
+        free = free_face_mask(self.world, faces, fem.node_id, fem.partners)
+        master = np.repeat(self.masters[fem.body], 6)
+        keep = free & master
+        self.face_nodes = np.ascontiguousarray(faces[keep])
+        self.face_key = key[keep]
+        self.holders = node_holders(self.world.rank, fem.partners, len(fem.x))
+
+    def own_segments(self):
+        """This rank's segments with their nodes' current state."""
+        fem, nodes = self.elements, self.face_nodes
+        inv_m = np.where(fem.fixed.all(axis=1), 0.0, 1.0 / fem.mass)
+        inv_m[fem.rigid_nodes()] = 0.0
+        return {"gid": fem.node_id[nodes], "x": fem.x[nodes], "v": fem.v[nodes],
+                "inv_m": inv_m[nodes], "body": fem.node_body[nodes[:, 0]].astype(np.int64),
+                "key": self.face_key, "holders": self.holders[nodes]}
+
+    def with_halo(self, own):
+        """Own segments plus copies of the other ranks' segments that may reach this
+        rank's particles (collective)."""
+        if self.world.size == 1:
+            return own
+        slabs = self.decomposition.slabs
+        axis, h = slabs.axis, self.grid.h
+        plane = self.grid.origin[axis] + slabs.bounds * h
+        plane[0], plane[-1] = -np.inf, np.inf
+        pad = self.reach + h
+        x = own["x"][:, :, axis]
+        lo, hi = x.min(axis=1) - pad, x.max(axis=1) + pad
+        packages = []
+        for r in range(self.world.size):
+            going = (hi >= plane[r]) & (lo <= plane[r + 1]) & (r != self.world.rank)
+            packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
+        received = exchange_objects(self.world, packages)
+        parts = [own] + received
+        width = max(part["holders"].shape[2] for part in parts)
+        return {k: np.concatenate([pad_holders(part[k], width) if k == "holders"
+                                   else part[k] for part in parts])
+                for k in SEGMENT_FIELDS}
+
+    # -- the step ---------------------------------------------------------------------
+    def after_update_points(self, dt):
+        segs = self.with_halo(self.own_segments())
+        pair_p, pair_s, geo = self.find_pairs(segs)
+        phi = shapes(geo[:, 0], geo[:, 1])
+        p = self.points.particles
+        v_c = np.einsum("kj,kjd->kd", phi, segs["v"][pair_s])
+        approach = np.einsum("kd,kd->k", p.v[pair_p] - v_c, geo[:, 2:5]) < 0.0
+        pair_p, pair_s, geo, phi = pair_p[approach], pair_s[approach], geo[approach], \
+            phi[approach]
+        counts = self.pair_counts(segs, pair_s)
+        impulses = np.zeros((len(pair_p), 3))
+        ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
+                          segs["v"], segs["inv_m"] * counts, segs["body"], self.friction,
+                          impulses)
+        self.push_particles(pair_p, geo, impulses, dt)
+        self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
+        self.last_pairs = len(pair_p)
+
+    def push_particles(self, pair_p, geo, impulses, dt):
+        """Each pair's particle takes -I on its velocity and -dt I/m_p on its position;
+        a centre found inside its face moves out by GAP_CLOSURE of its depth."""
+        p = self.points.particles
+        share = impulses / p.mass[pair_p, None]
+        p.v[pair_p] -= share
+        p.x[pair_p] -= dt * share
+        inside = approach_depth(geo)
+        p.x[pair_p] += GAP_CLOSURE * inside[:, None] * geo[:, 2:5]
+        self.largest_penetration = float(inside.max()) if len(geo) else 0.0
+
+    def find_pairs(self, segs):
+        """(particle index, segment index, geometry (xi, eta, n, g)) of every particle in
+        contact with a segment (before the approach test)."""
+        p = self.points.particles
+        if not len(segs["key"]) or not p.n:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
+        x = np.ascontiguousarray(segs["x"])
+        seg_lo, seg_hi = x.min(axis=1) - self.reach, x.max(axis=1) + self.reach
+        lo = seg_lo.min(axis=0)
+        edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
+        extent = seg_hi.max(axis=0) - lo
+        size = max(edge, 2.0 * self.reach, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
+        dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
+        start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
+        radius = np.where(self.slave_bodies[p.body], half_spacing(p.vol0), 0.0)
+        pair_seg, geo = np.empty(p.n, np.int64), np.empty((p.n, 6))
+        ksc.find_pairs(p.x, p.body.astype(np.int64), radius, x, segs["body"], segs["key"],
+                       self.touches, lo, 1.0 / size, dims, start, items, pair_seg, geo)
+        pair_p = np.flatnonzero(pair_seg >= 0)
+        return pair_p, pair_seg[pair_p], geo[pair_p]
+
+    def pair_counts(self, segs, pair_s):
+        """(ns, 4): per segment node, how many approaching pairs over all ranks touch that
+        node (at least 1): each rank sends its counts to the node's lowest holder, which
+        answers with the totals (integers: exact in any order)."""
+        gid = segs["gid"][pair_s].ravel()
+        if self.world.size == 1:
+            ids, n = np.unique(gid, return_counts=True)
+        else:
+            ids, n = self.counts_over_ranks(gid, segs["holders"][pair_s][:, :, 0].ravel())
+        every = segs["gid"].ravel()
+        at = np.minimum(np.searchsorted(ids, every), max(len(ids) - 1, 0))
+        found = (ids[at] == every) if len(ids) else np.zeros(len(every), bool)
+        counts = np.where(found, n[at] if len(ids) else 1, 1)
+        return counts.reshape(segs["gid"].shape).astype(np.float64)
+
+    def counts_over_ranks(self, gid, home):
+        """(node ids, pair counts) of the nodes in ``gid``, summed over all ranks."""
+        asks = exchange_objects(self.world, [gid[home == r] for r in range(self.world.size)])
+        ids, n = np.unique(np.concatenate(asks), return_counts=True)
+        answers = []
+        for ask in asks:
+            mine = np.unique(ask)
+            answers.append((mine, n[np.searchsorted(ids, mine)]))
+        back = exchange_objects(self.world, answers)
+        ids = np.concatenate([a for a, _ in back])
+        n = np.concatenate([b for _, b in back])
+        order = np.argsort(ids)
+        return ids[order], n[order]
+
+    def push_nodes(self, segs, pair_p, pair_s, phi, impulses, dt):
+        """The node impulses phi_J I to every holder of node J, summed there in (node id,
+        particle id) order; velocities and positions of the free components move (not
+        those the constraints or the grid faces hold)."""
+        fem, p = self.elements, self.points.particles
+        gid = segs["gid"][pair_s].ravel()
+        pid = np.repeat(p.id[pair_p], 4)
+        rows = (phi[:, :, None] * impulses[:, None, :]).reshape(-1, 3)
+        holders = segs["holders"][pair_s].reshape(len(gid), segs["holders"].shape[2])
+        parts = [(gid, pid, rows)] if self.world.size == 1 else exchange_objects(
+            self.world, [(gid[w], pid[w], rows[w]) for w in
+                         ((holders == r).any(axis=1) for r in range(self.world.size))])
+        gid = np.concatenate([part[0] for part in parts])
+        pid = np.concatenate([part[1] for part in parts])
+        rows = np.concatenate([part[2] for part in parts])
+        order = np.lexsort((pid, gid))
+        local = np.searchsorted(fem.node_id, gid[order])
+        total = np.zeros_like(fem.v)
+        np.add.at(total, local, rows[order])
+        total[fem.fixed] = 0.0
+        total[fem.rigid_nodes()] = 0.0
+        before = fem.v.copy()
+        fem.v += total / fem.mass[:, None]
+        fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
+        fem.x += dt * (fem.v - before)
+
+
+def approach_depth(geo):
+    """How deep each pair's particle centre is inside its face (0 when outside)."""
+    return np.maximum(0.0, -geo[:, 5])
+
+
+def half_spacing(vol0):
+    """A particle's radius: half its spacing, vol0^(1/3) / 2."""
+    return 0.5 * np.cbrt(vol0)
+
+
+def shapes(xi, eta):
+    """(k, 4) bilinear face shape functions at (xi, eta) (Eq. 37)."""
+    return (0.25 * (1.0 + ksc.XI[None, :] * xi[:, None])
+            * (1.0 + ksc.ETA[None, :] * eta[:, None]))
+
+
+def free_face_mask(world, faces, node_id, partners):
+    """Which faces (``faces``: rows of 4 local node indices, six per element) belong to
+    one element only, over all ranks: a face found once here is interior when a rank
+    that shares its four nodes has it too (collective among the sharers)."""
+    rows = face_rows(node_id[faces])
+    _, inverse, counts = np.unique(rows, return_inverse=True, return_counts=True)
+    free = counts[inverse.ravel()] == 1
+    if not partners:
+        return free
+    candidates = {}
+    for rank, idx in partners:
+        shared = np.zeros(len(node_id), bool)
+        shared[idx] = True
+        candidates[rank] = rows[free & shared[faces].all(axis=1)]
+    received = swap_with(world, [r for r, _ in partners], candidates, tag=81)
+    for theirs in received.values():
+        free &= ~np.isin(rows, theirs[world.rank])
+    return free
+
+
+def face_rows(gids):
+    """One comparable value per face: its sorted global node ids as 32 raw bytes."""
+    keys = np.ascontiguousarray(np.sort(gids, axis=1).astype(np.int64))
+    return keys.view(np.dtype((np.void, 32))).ravel()
+
+
+def node_holders(rank, partners, n_nodes):
+    """(n_nodes, k) the ranks holding each local node, ascending, padded with -1."""
+    lists = [[rank] for _ in range(n_nodes)]
+    for other, idx in partners:
+        for i in idx:
+            lists[i].append(other)
+    width = max((len(l) for l in lists), default=1)
+    out = np.full((n_nodes, width), -1, np.int64)
+    for i, l in enumerate(lists):
+        out[i, :len(l)] = sorted(l)
+    return out
+
+
+def pad_holders(holders, width):
+    """Widen (ns, 4, k) holder lists to ``width`` with -1."""
+    out = np.full(holders.shape[:2] + (width,), -1, np.int64)
+    out[:, :, :holders.shape[2]] = holders
+    return out
