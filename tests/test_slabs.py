@@ -1,5 +1,6 @@
 """Slab decomposition: balanced cuts, owner lookup, axis choice."""
 import numpy as np
+import pytest
 
 from pmpm.comm.slabs import Slabs, balanced_bounds, choose_slabs
 
@@ -32,3 +33,18 @@ def test_choose_slabs_prefers_balanced_axis():
     slabs = choose_slabs(hist, 2, "auto")
     assert slabs.imbalance(hist[slabs.axis]) == 0.0
     assert choose_slabs(hist, 2, "x").axis == 0
+
+
+def test_slabs_for_27_node_shapes_are_at_least_three_cells_wide():
+    """All the particles in one cell would give a one-cell middle slab; with min_width 3
+    every slab keeps three cells (a particle reaches one node layer beyond its cell, and
+    no node may be reached from both neighbours of a slab)."""
+    from pmpm.comm.slabs import balanced_bounds
+    counts = np.zeros(12)
+    counts[6] = 1000
+    counts[[0, 11]] = 1
+    bounds = balanced_bounds(counts, 3, min_width=3)
+    assert (np.diff(bounds) >= 3).all() and bounds[0] == 0 and bounds[-1] == 12
+    assert (np.diff(balanced_bounds(counts, 3)) >= 1).all()
+    with pytest.raises(ValueError):
+        balanced_bounds(np.ones(8), 3, min_width=3)

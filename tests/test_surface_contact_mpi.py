@@ -42,14 +42,11 @@ CASES = {
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_n_ranks_give_the_one_rank_answer(name, shape):
     """The thrown and the sliding block, rebalanced every 20 steps (the slab planes move
-    with the block, elements migrate and their faces are found again). GIMP on 2 ranks
-    only: on 3, the rebalance makes the middle slab one cell wide, and a GIMP particle
-    then reaches nodes of a rank that is not its neighbour, which the grid's sums over
-    slab planes do not gather (the same runs agree on 3 ranks with linear hats; without
-    contact the block takes other places and the case does not arise)."""
+    with the block, elements migrate and their faces are found again). On 3 ranks this
+    rebalance once made the middle slab one cell wide, and a GIMP particle then reached
+    a node the other neighbour reached too; slabs are now 2 cells wide with the 27-node
+    shapes (pmpm.comm.slabs.balanced_bounds)."""
     world = comm_world()
-    if shape == "gimp" and world.size > 2:
-        pytest.skip("GIMP with a one-cell slab on 3+ ranks: see the docstring")
     overrides = CASES[name] + [f"grid.shape_functions={shape}"]
     overrides.append(overrides.pop(-2))           # time.end stays last
     sims = {"n": simulation(overrides, world), "one": simulation(overrides)}

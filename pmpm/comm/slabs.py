@@ -46,12 +46,17 @@ def _per_rank_counts(cell_counts, bounds):
     return cumulative[bounds[1:]] - cumulative[bounds[:-1]]
 
 
-def balanced_bounds(cell_counts, n_ranks):
-    """Cut ``len(cell_counts)`` cells into ``n_ranks`` contiguous non-empty ranges whose
-    particle counts are as equal as greedy cutting at the cumulative quantiles allows."""
+def balanced_bounds(cell_counts, n_ranks, min_width=1):
+    """Cut ``len(cell_counts)`` cells into ``n_ranks`` contiguous ranges of at least
+    ``min_width`` cells whose particle counts are as equal as greedy cutting at the
+    cumulative quantiles allows. The 27-node shape functions need slabs 3 cells wide: a
+    particle reaches one node layer beyond its cell, so across a narrower slab a node
+    would take points of both neighbours of its rank, and the sums over slab planes,
+    neighbour by neighbour, would leave some rank without the other's share."""
     n_cells = len(cell_counts)
-    if n_ranks > n_cells:
-        raise ValueError(f"{n_ranks} ranks but only {n_cells} cells along the slab axis")
+    if n_ranks * min_width > n_cells:
+        raise ValueError(f"{n_ranks} ranks of at least {min_width} cells but only {n_cells} "
+                         f"cells along the slab axis")
     cumulative = np.cumsum(cell_counts, dtype=np.float64)
     total = cumulative[-1] if n_cells else 0.0
     bounds = np.zeros(n_ranks + 1, dtype=np.int64)
@@ -61,25 +66,27 @@ def balanced_bounds(cell_counts, n_ranks):
         cut = int(np.searchsorted(cumulative, target, side="left")) + 1
         if cut > 1 and abs(cumulative[cut - 2] - target) <= abs(cumulative[cut - 1] - target):
             cut -= 1
-        bounds[r] = min(max(cut, bounds[r - 1] + 1), n_cells - (n_ranks - r))
+        bounds[r] = min(max(cut, bounds[r - 1] + min_width),
+                        n_cells - (n_ranks - r) * min_width)
     return bounds
 
 
-def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto"):
+def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto", min_width=1):
     """Pick the slab axis (given, or the one that balances best, ties to the smaller
-    cut plane) and its balanced bounds. ``cell_counts_per_axis`` holds three histograms.
-    Raises SetupError, naming ``decomposition.axis``, when no candidate axis has a cell
-    layer for every rank."""
+    cut plane) and its balanced bounds, each slab at least ``min_width`` cells wide.
+    ``cell_counts_per_axis`` holds three histograms. Raises SetupError, naming
+    ``decomposition.axis``, when no candidate axis has enough cell layers for every
+    rank."""
     candidates = range(3) if axis == "auto" else [AXES.index(axis)]
     layers = max(len(cell_counts_per_axis[a]) for a in candidates)
-    if layers < n_ranks:
-        raise SetupError([_too_many_ranks(axis, layers, n_ranks)])
+    if layers < n_ranks * min_width:
+        raise SetupError([_too_many_ranks(axis, layers, n_ranks, min_width)])
     best = None
     for a in candidates:
         counts = cell_counts_per_axis[a]
-        if len(counts) < n_ranks:
+        if len(counts) < n_ranks * min_width:
             continue
-        slabs = Slabs(a, balanced_bounds(counts, n_ranks))
+        slabs = Slabs(a, balanced_bounds(counts, n_ranks, min_width))
         plane = np.prod([len(cell_counts_per_axis[b]) for b in range(3) if b != a])
         key = (round(slabs.imbalance(counts), 3), plane)
         if best is None or key < best[0]:
@@ -87,14 +94,18 @@ def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto"):
     return best[1]
 
 
-def _too_many_ranks(axis, layers, n_ranks):
+def _too_many_ranks(axis, layers, n_ranks, min_width=1):
     """The problem line for ``n_ranks`` ranks when at most ``layers`` cell layers exist."""
     if axis == "auto":
         where, fix = "auto: no axis has more than", "use fewer ranks"
     else:
         where, fix = f"{axis} has", "choose another axis or fewer ranks"
+    most = layers // min_width
+    wide = "" if min_width == 1 else (f" (the 27-node shape functions need slabs "
+                                      f"{min_width} cells wide)")
     return (f"decomposition.axis: {where} {_count(layers, 'cell layer')}: it can be split "
-            f"among at most {_count(layers, 'rank')} ({_count(n_ranks, 'rank')} asked); {fix}")
+            f"among at most {_count(most, 'rank')}{wide} ({_count(n_ranks, 'rank')} asked); "
+            f"{fix}")
 
 
 def _count(n, noun):

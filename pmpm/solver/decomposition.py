@@ -5,6 +5,7 @@ import numpy as np
 
 from ..comm import migrate_store
 from ..comm.slabs import Slabs, balanced_bounds
+from ..kernels.shape import HALO
 from .errors import SolverError
 from .levels import cell_ranges
 
@@ -26,6 +27,8 @@ class Decomposition:
     def __init__(self, world, grid, slabs, grids, windows, n_bodies=1):
         self.world, self.grid, self.slabs = world, grid, slabs
         self.grids, self.windows = grids, windows
+        #: the narrowest slab (cells): 3 for the 27-node shapes (comm.slabs.balanced_bounds)
+        self.min_width = slab_min_width(grids.coarse.shape)
         self.cell_ranges = []
         #: other points the blocks must cover (FE nodes on the grid): objects with
         #: ``spans(grids, grid)``
@@ -102,7 +105,7 @@ class Decomposition:
         imbalance = self.slabs.imbalance(counts)
         if self.world.size == 1 or imbalance <= threshold:
             return imbalance, False
-        new = Slabs(self.slabs.axis, balanced_bounds(counts, self.world.size))
+        new = Slabs(self.slabs.axis, balanced_bounds(counts, self.world.size, self.min_width))
         if new == self.slabs:
             return imbalance, False
         self.slabs = new
@@ -116,3 +119,10 @@ class Decomposition:
         local = sum(np.bincount(k.slab_cells(self.grid, a), minlength=n).astype(np.int64)
                     for k in kinds)
         return self.world.sum(local)
+
+
+def slab_min_width(shape):
+    """The narrowest slab, in coarse cells, for a shape-function code: the particles of
+    the two neighbours each reach HALO node layers into it, and no node may be reached
+    from both sides (the sums over slab planes gather a node from its own two ranks)."""
+    return 1 + 2 * HALO[shape]

@@ -9,7 +9,7 @@ from ..particles import Particles
 from .bodies import BodyTable, assign_loads, build_particles, fill_positions
 from .contact import SURFACE_COUPLING, ContactRules, GridContact
 from .couplings import TiedInterface
-from .decomposition import Decomposition
+from .decomposition import Decomposition, slab_min_width
 from .energy import gravitational_potential, load_power
 from .errors import SetupError
 from .fem_bodies import FemBodies, build_meshes
@@ -92,7 +92,8 @@ class Simulation:
         meshes = build_meshes(config, case_dir)
         centroids = [m.points[m.hexes].mean(axis=1) for m in meshes.values()]
         counts = grid.cell_histograms(np.concatenate([x] + centroids))  # elements count too
-        slabs = choose_slabs(counts, world.size, config.decomposition.axis)
+        slabs = choose_slabs(counts, world.size, config.decomposition.axis,
+                             slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
         return grid, filled, slabs, mine, meshes
 
@@ -122,7 +123,8 @@ class Simulation:
         slabs = Slabs(scalars["slab_axis"], scalars["slab_bounds"])
         if len(slabs.bounds) != world.size + 1:
             counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
-            slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]])
+            slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]],
+                                 slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         refined = scalars.get("refine")
         elements = None
         if any(b.method == "fem" for b in config.bodies):
