@@ -51,6 +51,10 @@ CASES = {
     # FEM bodies (issue 16): the Johnson-Cook block as 60^3 = 216,000 hexahedra of 1 mm
     "fem_block_216k": ("runs/fem_block.yaml", ["params.edge=60", "params.element=1.0",
                                                "output.frames=1"]),
+    # an MPM sphere on an FEM plate of 1.6 m elements (8 cells), particle-to-surface
+    # contact (ICFEMP, issue 16), the first 0.2 s of runs/sphere_rolling_fem.yaml
+    "sphere_fem_R8": ("runs/sphere_rolling_fem.yaml", ["params.R=8", "time.end=200",
+                                                      "output.frames=1"]),
     # contact overhead (issue 3): the same particles with and without method 2
     "ball_contact": ("runs/steel_ball_plate.yaml", ["params.method=2", "time.end=0.03",
                                                     "output.frames=1"]),
