@@ -15,6 +15,7 @@ from clihelp import pmpm, pmpm_lines, read_history
 from pmpm.case import CaseError, load_case
 from pmpm.case.hexmesh import box_mesh, centre_jacobians, hex_mesh
 from pmpm.solver.fem_partition import bounding_box, overlapping, partition_mesh, sharers
+from pmpm.fem.hexahedron import element_volumes
 
 G = -9.81e-3 * 1000.0        # mm/ms^2, strong so that a few steps move visibly
 
@@ -141,8 +142,9 @@ def test_a_rigid_fem_body_keeps_its_velocity(tmp_path):
 
 
 @pytest.mark.parametrize("geometry, key, words", [
-    ({"type": "sphere", "center": [0, 0, 0], "radius": 2}, "bodies[0].geometry.type",
-     "an FEM body is made from a box or a mesh"),
+    ({"type": "ogive", "tip": [0, 0, 0], "direction": [0, 0, 1], "length": 8,
+      "diameter": 2, "crh": 3}, "bodies[0].geometry.type",
+     "an FEM body is made from a box, cylinder, sphere or mesh for now, not a ogive"),
     ({"type": "mesh", "file": "tets.vtu"}, "bodies[0].geometry.file",
      "no hexahedron cells"),
     ({"type": "mesh", "file": "inverted.vtu"}, "bodies[0].geometry.file",
@@ -489,6 +491,9 @@ def test_a_block_thrown_at_a_slip_face_stops_there(tmp_path):
     elements) end as 1 does, to round-off."""
     tree = thrown_block(500.0)
     tree["output"] = {"times": [0.004, 0.008, 0.012, 0.016]}
+    # slabs of one cell, so that the rebalanced slabs still split the block at the face
+    # (the 27-node shapes keep slabs 3 cells wide)
+    tree["grid"]["shape_functions"] = "linear"
     case, frames = write_case(tmp_path, tree), []
     for ranks in (1, 2):
         out = tmp_path / f"r{ranks}"
@@ -537,3 +542,59 @@ def test_constrained_components_start_at_rest(tmp_path):
     held_share = 0.25                   # of the lumped mass: a face of nodes of the block
     kinetic = 0.5 * 8 * 7.8e-3 * (25 + 25 + 9 - held_share * 25 - held_share * 9)
     assert rows[0, header.index("kinetic")] == pytest.approx(kinetic, rel=1e-12)
+
+
+@pytest.mark.parametrize("geometry, volume", [
+    ({"type": "sphere", "center": [1, 2, 3], "radius": 5.0}, 4 / 3 * np.pi * 125),
+    ({"type": "cylinder", "base": [0, 0, 0], "axis": "y", "radius": 5.0, "length": 10.0,
+      "inner_radius": 0.0}, np.pi * 25 * 10),
+    ({"type": "cylinder", "base": [0, 0, 0], "axis": "x", "radius": 5.0, "length": 10.0,
+      "inner_radius": 3.0}, np.pi * 16 * 10),
+])
+@pytest.mark.parametrize("size", [1.0, 0.5])
+def test_sphere_and_cylinder_meshes_fill_their_shape_with_sound_elements(geometry, volume,
+                                                                       size):
+    """The cubed sphere, the O-grid cylinder and the polar tube: every element's centre
+    Jacobian positive, the volume within 1.2 % (the faces are flat), the smallest
+    element's characteristic length (volume / largest face, the time step's) at least
+    0.35 of the element size, every node inside the shape."""
+    from pmpm.fem.hexahedron import element_geometry
+    points, hexes = hex_mesh(geometry, size)
+    assert (centre_jacobians(points, hexes) > 0).all()
+    vols = np.empty(len(hexes))
+    element_volumes(points, hexes, vols)
+    assert abs(vols.sum() / volume - 1) < 0.012
+    b = np.empty((8, 3))
+    shortest = min(v / element_geometry(points[h], b)[1] for v, h in zip(vols, hexes))
+    assert shortest > 0.35 * size
+    assert len(np.unique(hexes)) == len(points)            # no loose node, seam merged
+    if geometry["type"] == "sphere":
+        r = np.linalg.norm(points - geometry["center"], axis=1)
+        assert r.max() == pytest.approx(5.0) and r.min() == pytest.approx(0.0)
+    else:
+        a = "xyz".index(geometry["axis"])
+        radial = np.linalg.norm(np.delete(points, a, axis=1), axis=1)
+        assert radial.max() == pytest.approx(5.0)
+        assert radial.min() == pytest.approx(geometry["inner_radius"])
+        assert np.ptp(points[:, a]) == pytest.approx(10.0)
+
+
+def test_an_fem_sphere_falls_freely_and_weighs_its_elements(tmp_path):
+    """A cubed-sphere body from the case's sphere geometry, rotated: v = g t exactly, and
+    its mass is rho times the sum of its element volumes (3 % under the sphere's, at 6
+    elements across)."""
+    geometry = {"type": "sphere", "center": [0, 0, 0], "radius": 3.0,
+                "rotate": {"axis": [1, 1, 0], "angle_deg": 20}}
+    out = tmp_path / "out"
+    done = pmpm([write_case(tmp_path, case_tree(geometry)), "--out", out, "--quiet"])
+    assert done.returncode == 0, done.stderr
+    with open(out / "summary.json") as f:
+        summary = json.load(f)
+    block = summary["bodies"]["block"]
+    points, hexes = hex_mesh(geometry | {"rotate": None}, 1.0)
+    vols = np.empty(len(hexes))
+    element_volumes(points, hexes, vols)
+    assert block["mass"] == pytest.approx(7.8e-3 * vols.sum(), rel=1e-12)
+    assert block["mass"] == pytest.approx(7.8e-3 * 4 / 3 * np.pi * 27, rel=0.04)
+    assert block["n_elements"] == 6 ** 3
+    assert block["velocity"] == pytest.approx([0, 0, G * summary["t_end"]], abs=1e-12)

@@ -15,7 +15,7 @@ from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
 HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
-FEM_GEOMETRIES = ("box", "mesh")
+FEM_GEOMETRIES = ("box", "cylinder", "sphere", "mesh")
 AXIS_NAMES = ("x", "y", "z")
 CONSTRAINT = {
     "region": Field(mapping({"min": Field(vector(), unit="mm", doc="lower corner"),
@@ -30,8 +30,12 @@ CONSTRAINT = {
 FEM = {
     "element_size": Field(number(greater(0)), OMIT, "mm",
                           "edge of the elements a box is cut into: round(edge / "
-                          "element_size) elements, at least 1, along each edge of the box "
-                          "(left out: grid.cell); a mesh file keeps its own elements"),
+                          "element_size) elements, at least 1, along each edge of the box; "
+                          "a sphere is a cubed sphere of round(diameter / element_size) "
+                          "elements (even, at least 2) along each axis, a solid cylinder an "
+                          "O-grid disc of as many across, swept in round(length / "
+                          "element_size) layers, a tube polar blocks (left out: grid.cell); "
+                          "a mesh file keeps its own elements"),
     "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
                        doc="Flanagan-Belytschko hourglass control of the one-point "
                            "elements: `stiffness` resists the hourglass displacement "
@@ -47,7 +51,7 @@ FEM = {
                              "nodes on a face take)"),
 }
 METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it is a mesh "
-              "of 8-node hexahedra (box or mesh geometry) advanced by explicit central "
+              "of 8-node hexahedra (a box, cylinder, sphere or mesh file) advanced by explicit central "
               "differences with lumped masses, one-point integration and hourglass "
               "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
               "holds its centroid; with a `rigid` material it moves with its velocity. FEM "
@@ -100,8 +104,8 @@ def check_fem_geometry(body, case_dir, check_geometry, path, problems):
         return
     if geometry["type"] not in FEM_GEOMETRIES:
         problems.add(join(join(path, "geometry"), "type"),
-                     f"an FEM body is made from a box or a mesh for now, not a "
-                     f"{geometry['type']}")
+                     f"an FEM body is made from a box, cylinder, sphere or mesh for now, "
+                     f"not a {geometry['type']} (mesh it and give the file)")
         return
     if not valid(body["fem"], "element_size") or too_many_elements(body, path, problems):
         return
@@ -155,13 +159,18 @@ def check_node_sets(body, case_dir, path, problems):
 
 def too_many_elements(body, path, problems):
     geometry, size = body["geometry"], body["fem"]["element_size"]
-    if geometry["type"] != "box":
+    kind = geometry["type"]
+    if kind == "box":
+        count = float(np.prod(box_counts(geometry["min"], geometry["max"], size)
+                              .astype(np.float64)))
+    elif kind in ("sphere", "cylinder"):
+        across = 2.0 * geometry["radius"] / size
+        count = across ** 3 if kind == "sphere" else across ** 2 * geometry["length"] / size
+    else:
         return False
-    count = float(np.prod(box_counts(geometry["min"], geometry["max"], size)
-                          .astype(np.float64)))
     if count > MAX_ELEMENTS:
         problems.add(join(join(path, "fem"), "element_size"),
-                     f"{size:g} cuts the box into {count:.3g} elements, more than "
+                     f"{size:g} cuts the {kind} into {count:.3g} elements, more than "
                      f"{MAX_ELEMENTS:.0e}")
         return True
     return False

@@ -1,5 +1,6 @@
-"""Hexahedral meshes of FEM bodies: a structured mesh of a box, or the hexahedra of a mesh
-file meshio reads; then the body's ``rotate``. Node order is VTK's (pmpm.fem.hexahedron).
+"""Hexahedral meshes of FEM bodies: a structured mesh of a box, a cylinder (O-grid; a tube
+in polar blocks) or a sphere (cubed sphere), or the hexahedra of a mesh file meshio
+reads; then the body's ``rotate``. Node order is VTK's (pmpm.fem.hexahedron).
 
 Plain numpy: an element is refused when its Jacobian at the centre is not positive
 (inverted, or collapsed to no volume), so that the solver never starts on one.
@@ -50,6 +51,68 @@ def box_mesh(lo, hi, counts):
                (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
     hexes = np.stack([node[i + a, j + b, k + c] for a, b, c in corners], axis=1)
     return points, hexes.astype(np.int64)
+
+
+def ball_map(points, radius):
+    """Map a box mesh of the cube [-1, 1]^k (k = 2 or 3 columns) onto the ball of
+    ``radius``: x = radius ((1 - w) p + w rho p / |p|), rho = |p|_inf, w = sqrt(rho).
+    Every node keeps its direction and its distance grows with rho along it (by
+    radius (|q| - 1.5 w (|q| - 1)) per unit rho, |q| = |p| / rho <= sqrt(3): at least
+    0.63 radius), so the map is one to one; the core stays near a cube and the shells
+    round off into the sphere (the cubed-sphere or, in 2D, O-grid blocks, with no
+    singular axis). w = rho would squeeze the shell's corner elements to 0.27."""
+    rho = np.abs(points).max(axis=1, keepdims=True)
+    shell = np.divide(points, rho, out=np.zeros_like(points), where=rho > 0)
+    angles = np.tan(0.25 * np.pi * shell)          # equiangular along each shell face
+    length = np.linalg.norm(angles, axis=1, keepdims=True)
+    unit = np.divide(angles, length, out=np.zeros_like(points), where=length > 0)
+    w = np.sqrt(rho)
+    return radius * ((1.0 - w) * points + w * rho * unit)
+
+
+def across(diameter, element_size):
+    """Elements across a diameter: round(diameter / size), even (a node on the axis), >= 2."""
+    n = max(int(np.rint(diameter / element_size)), 2)
+    return n + n % 2
+
+
+def sphere_mesh(center, radius, element_size):
+    """(points, hexes) of a cubed-sphere mesh: ``across`` elements along each axis."""
+    n = across(2.0 * radius, element_size)
+    points, hexes = box_mesh([-1.0] * 3, [1.0] * 3, [n, n, n])
+    return np.asarray(center, float) + ball_map(points, radius), hexes
+
+
+def cylinder_mesh(base, axis, radius, length, inner_radius, element_size):
+    """(points, hexes) of a cylinder along ``axis`` ("x", "y" or "z") from ``base``: a
+    solid one as an O-grid disc (:func:`ball_map` of a square) swept along the axis, a
+    tube (inner_radius > 0) as polar blocks, both round(length / size) layers long."""
+    layers = int(max(np.rint(length / element_size), 1))
+    if inner_radius > 0:
+        n_r = int(max(np.rint((radius - inner_radius) / element_size), 1))
+        n_t = int(max(np.rint(np.pi * (radius + inner_radius) / element_size), 8))
+        polar, hexes = box_mesh([inner_radius, 0.0, 0.0], [radius, 1.0, length],
+                                [n_r, n_t, layers])
+        angle = 2.0 * np.pi * polar[:, 1]
+        local = np.stack([polar[:, 0] * np.cos(angle), polar[:, 0] * np.sin(angle),
+                          polar[:, 2]], axis=1)
+        local, hexes = merge_coincident(local, hexes)
+    else:
+        n = across(2.0 * radius, element_size)
+        square, hexes = box_mesh([-1.0, -1.0, 0.0], [1.0, 1.0, length], [n, n, layers])
+        local = np.concatenate([ball_map(square[:, :2], radius), square[:, 2:]], axis=1)
+    a = "xyz".index(axis)
+    order = [(a + 1) % 3, (a + 2) % 3, a]          # local (u, v, w) -> global columns
+    points = np.empty_like(local)
+    points[:, order] = local
+    return np.asarray(base, float) + points, hexes
+
+
+def merge_coincident(points, hexes):
+    """Merge nodes at the same place (a polar mesh's seam), renumbering ``hexes``."""
+    keys = np.round(points / (np.abs(points).max() + 1.0), 12)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    return points[first], inverse.reshape(-1)[hexes]
 
 
 def read_hexes(path, scale=1.0, translate=(0.0, 0.0, 0.0)):
@@ -103,11 +166,19 @@ def check_orientation(points, hexes):
 
 
 def hex_mesh(geometry, element_size, case_dir="."):
-    """(points, hexes) of an FEM body's validated ``geometry`` (box or mesh), rotated by
-    its ``rotate``. Raises MeshReadError, MixedMeshError or InvertedElementError."""
-    if geometry["type"] == "box":
+    """(points, hexes) of an FEM body's validated ``geometry`` (box, cylinder, sphere or
+    mesh), rotated by its ``rotate``. Raises MeshReadError, MixedMeshError or
+    InvertedElementError."""
+    kind = geometry["type"]
+    if kind == "box":
         counts = box_counts(geometry["min"], geometry["max"], element_size)
         points, hexes = box_mesh(geometry["min"], geometry["max"], counts)
+    elif kind == "sphere":
+        points, hexes = sphere_mesh(geometry["center"], geometry["radius"], element_size)
+    elif kind == "cylinder":
+        points, hexes = cylinder_mesh(geometry["base"], geometry["axis"], geometry["radius"],
+                                      geometry["length"], geometry["inner_radius"],
+                                      element_size)
     else:
         points, hexes = read_hexes(os.path.join(case_dir, geometry["file"]),
                                    geometry["scale"], geometry["translate"])
