@@ -51,7 +51,7 @@ def test_the_water_reaches_the_obstacle_and_bends_it_downstream(runs, coupling):
 def test_no_water_particle_ends_up_inside_the_obstacle(runs, coupling):
     """At every frame no water particle's centre lies deeper than a quarter spacing inside
     the deformed obstacle (surface coupling keeps a particle's sphere of half its spacing
-    out of the faces; measured: ICFEMP centres at most 0.5 mm in at the corners, CFEMP
+    out of the faces; measured: ICFEMP centres at most 0.5 mm in, along the loaded face; CFEMP
     none); and at most 1 % of the water left the tank (a few particles of the thin layer
     drift through the slip floor: measured 4-5 of 666 by 300 ms)."""
     out = runs[coupling]
