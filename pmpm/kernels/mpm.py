@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 
 from ..materials.kernels import update_stress_columns
+from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
 from .shape import MAX_NODES, stencil
 
@@ -29,14 +30,18 @@ NODAL_COMPONENTS = 8
 
 
 @njit(cache=True)
-def particles_to_grid(pts, rigid, geo, nodal, want):
-    """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
+def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
+    """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots.
+    With ``affine`` (the particles' A_p, (n, 9), see ``pmpm.kernels.affine``; 27-node
+    shapes only) a deformable particle's momentum at node i is m_p w_ip (v_p +
+    B_p D_p^{-1} (x_i - x_p)) (APIC)."""
     x, v, mass, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
+    e, M = np.zeros((MAX_NODES, 3)), np.zeros((3, 3))
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
@@ -44,6 +49,16 @@ def particles_to_grid(pts, rigid, geo, nodal, want):
                         nodes, w, gx, gy, gz)
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
+        if affine is not None and slot == 0:
+            node_offsets(axes, e)
+            affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
+            for k in range(reach):
+                n, mw = nodes[k], m * w[k]
+                nodal[n, 0] += mw
+                for d in range(3):
+                    nodal[n, 1 + d] += mw * (v[p, d] + M[d, 0] * e[k, 0] + M[d, 1] * e[k, 1]
+                                             + M[d, 2] * e[k, 2])
+            continue
         for k in range(reach):
             n, mw = nodes[k], m * w[k]
             nodal[n, slot] += mw
@@ -93,13 +108,17 @@ def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
 
 
 @njit(cache=True)
-def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
+def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None):
     """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
     accelerations (Eq. 16, FLIP); rigid particles move with their own velocity. At contact
     nodes a particle reads its own body's field ``cnew`` (seed 001 Eqs. 33-34). With
     ``pic`` > 0 the new velocity is ``(1 - pic)`` times the FLIP one plus ``pic`` times
-    the new nodal velocity at the particle (PIC), which damps. Returns the index of the
-    first particle whose new position is not finite, else -1."""
+    the new nodal velocity at the particle (PIC), which damps. With ``affine`` (APIC, see
+    ``pmpm.kernels.affine``; 27-node shapes) the new velocity is the PIC one and the
+    particle's A_p = sum_i w_ip v_i (x_i - x_p)^T / h^2 is gathered from the new nodal
+    velocities at the start-of-step position (``pic`` is then not used; rigid particles
+    keep A_p = 0). Returns the index of the first particle whose new position is not
+    finite, else -1."""
     x, v, _, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
@@ -108,6 +127,7 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
+    e, vk, A = np.zeros((MAX_NODES, 3)), np.zeros(3), np.zeros(9)
     bad = -1
     for p in range(x.shape[0]):
         if level[p] != want:
@@ -139,13 +159,32 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
                 dv0 += wk * cnew[s, b, 3]
                 dv1 += wk * cnew[s, b, 4]
                 dv2 += wk * cnew[s, b, 5]
+        if affine is not None:
+            node_offsets(axes, e)
+            A[:] = 0.0
+            for k in range(reach):
+                n, wk = nodes[k], w[k] * inv_h
+                s = -1
+                if contact is not None:
+                    s = slot_of[n]
+                for d in range(3):
+                    vk[d] = gnew[n, d]
+                    if contact is not None and s >= 0:
+                        vk[d] = cnew[s, b, d]
+                for r in range(3):
+                    for c in range(3):
+                        A[3 * r + c] += wk * vk[r] * e[k, c]
+            for i in range(9):
+                affine[p, i] = A[i]
         x[p, 0] += dt * dx0
         x[p, 1] += dt * dx1
         x[p, 2] += dt * dx2
         v[p, 0] += dt * dv0
         v[p, 1] += dt * dv1
         v[p, 2] += dt * dv2
-        if pic > 0.0:
+        if affine is not None:
+            v[p, 0], v[p, 1], v[p, 2] = dx0, dx1, dx2
+        elif pic > 0.0:
             v[p, 0] = (1.0 - pic) * v[p, 0] + pic * dx0
             v[p, 1] = (1.0 - pic) * v[p, 1] + pic * dx1
             v[p, 2] = (1.0 - pic) * v[p, 2] + pic * dx2
