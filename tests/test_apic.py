@@ -166,6 +166,8 @@ def test_a_restarted_apic_run_ends_where_the_uninterrupted_one_does(tmp_path, sp
 @pytest.mark.parametrize("sets, words", [
     (["time.pic=0.1"], "time.transfer: apic takes the grid's velocity itself"),
     (["grid.shape_functions=linear"], "time.transfer: apic needs grid.shape_functions"),
+    (["grid.windows=[{min: [0, -7, -4], max: [7, 7, 4], ratio: 2}]"],
+     "time.transfer: apic does not keep angular momentum across a tied window"),
 ])
 def test_apic_refuses_what_cannot_work(tmp_path, sets, words):
     done = pmpm([SPIN, "--out", tmp_path / "out"] + [x for s in sets for x in ("--set", s)])
