@@ -32,20 +32,29 @@ def node_offsets(axes, e):
 
 
 @njit(cache=True, inline="always")
+def _moments(axes, row):
+    """The 0th, 1st and 2nd moments sum_j w_j e_j^k of one axis's weights (rows ``row``:
+    weights, ``row + 2``: offsets particle minus node, so e_j is minus it)."""
+    m0 = m1 = m2 = 0.0
+    for j in range(3):
+        wj, ej = axes[row, j], -axes[row + 2, j]
+        m0 += wj
+        m1 += wj * ej
+        m2 += wj * ej * ej
+    return m0, m1, m2
+
+
+@njit(cache=True, inline="always")
 def affine_velocity_matrix(affine, p, axes, h, out):
     """out = h A_p E_p^{-1}: the node velocity increment per cell of offset. E_p is built
     from the 1D moments of the weights (tensor product): E_dd = m2_d m0_f m0_g and
     E_de = m1_d m1_e m0_f (the first moments vanish where the shape reproduces linear
     functions, so E is then diagonal)."""
-    m0, m1, m2 = np.zeros(3), np.zeros(3), np.zeros(3)
-    for d in range(3):
-        for j in range(3):
-            wj, ej = axes[3 * d, j], -axes[3 * d + 2, j]
-            m0[d] += wj
-            m1[d] += wj * ej
-            m2[d] += wj * ej * ej
-    e00, e11, e22 = m2[0] * m0[1] * m0[2], m2[1] * m0[0] * m0[2], m2[2] * m0[0] * m0[1]
-    e01, e12, e02 = m1[0] * m1[1] * m0[2], m1[1] * m1[2] * m0[0], m1[0] * m1[2] * m0[1]
+    x0, x1, x2 = _moments(axes, 0)     # scalars: no array per particle
+    y0, y1, y2 = _moments(axes, 3)
+    z0, z1, z2 = _moments(axes, 6)
+    e00, e11, e22 = x2 * y0 * z0, y2 * x0 * z0, z2 * x0 * y0
+    e01, e12, e02 = x1 * y1 * z0, y1 * z1 * x0, x1 * z1 * y0
     c00, c11, c22 = e11 * e22 - e12 * e12, e00 * e22 - e02 * e02, e00 * e11 - e01 * e01
     c01, c02, c12 = e02 * e12 - e01 * e22, e01 * e12 - e02 * e11, e01 * e02 - e00 * e12
     scale = h / (e00 * c00 + e01 * c01 + e02 * c02)      # h / det E

@@ -52,12 +52,7 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
         if affine is not None and slot == 0:
             node_offsets(axes, e)
             affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
-            for k in range(reach):
-                n, mw = nodes[k], m * w[k]
-                nodal[n, 0] += mw
-                for d in range(3):
-                    nodal[n, 1 + d] += mw * (v[p, d] + M[d, 0] * e[k, 0] + M[d, 1] * e[k, 1]
-                                             + M[d, 2] * e[k, 2])
+            _scatter_affine(nodal, nodes, w, e, reach, m, v[p, 0], v[p, 1], v[p, 2], M)
             continue
         for k in range(reach):
             n, mw = nodes[k], m * w[k]
@@ -65,6 +60,20 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
             nodal[n, slot + 1] += mw * v[p, 0]
             nodal[n, slot + 2] += mw * v[p, 1]
             nodal[n, slot + 3] += mw * v[p, 2]
+
+
+@njit(cache=True, inline="always")
+def _scatter_affine(nodal, nodes, w, e, reach, m, v0, v1, v2, M):
+    """Mass and the momentum m w_k (v + M e_k) of one particle onto its nodes."""
+    m00, m01, m02, m10, m11, m12 = M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2]
+    m20, m21, m22 = M[2, 0], M[2, 1], M[2, 2]
+    for k in range(reach):
+        n, mw = nodes[k], m * w[k]
+        e0, e1, e2 = e[k, 0], e[k, 1], e[k, 2]
+        nodal[n, 0] += mw
+        nodal[n, 1] += mw * (v0 + m00 * e0 + m01 * e1 + m02 * e2)
+        nodal[n, 2] += mw * (v1 + m10 * e0 + m11 * e1 + m12 * e2)
+        nodal[n, 3] += mw * (v2 + m20 * e0 + m21 * e1 + m22 * e2)
 
 
 @njit(cache=True)
@@ -127,7 +136,7 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
-    e, vk, A = np.zeros((MAX_NODES, 3)), np.zeros(3), np.zeros(9)
+    e = np.zeros((MAX_NODES, 3))
     bad = -1
     for p in range(x.shape[0]):
         if level[p] != want:
@@ -160,22 +169,7 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
                 dv1 += wk * cnew[s, b, 4]
                 dv2 += wk * cnew[s, b, 5]
         if affine is not None:
-            node_offsets(axes, e)
-            A[:] = 0.0
-            for k in range(reach):
-                n, wk = nodes[k], w[k] * inv_h
-                s = -1
-                if contact is not None:
-                    s = slot_of[n]
-                for d in range(3):
-                    vk[d] = gnew[n, d]
-                    if contact is not None and s >= 0:
-                        vk[d] = cnew[s, b, d]
-                for r in range(3):
-                    for c in range(3):
-                        A[3 * r + c] += wk * vk[r] * e[k, c]
-            for i in range(9):
-                affine[p, i] = A[i]
+            _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
         x[p, 0] += dt * dx0
         x[p, 1] += dt * dx1
         x[p, 2] += dt * dx2
@@ -191,6 +185,34 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
         if bad < 0 and not (np.isfinite(x[p, 0]) and np.isfinite(x[p, 1]) and np.isfinite(x[p, 2])):
             bad = p
     return bad
+
+
+@njit(cache=True, inline="always")
+def _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e):
+    """affine[p] = sum_i w_ip v_i (x_i - x_p)^T / h^2 from the new nodal velocities (at
+    contact nodes the particle's own body's, ``contact.cnew``); ``e`` is scratch."""
+    node_offsets(axes, e)
+    a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = 0.0
+    for k in range(reach):
+        n = nodes[k]
+        u0, u1, u2 = gnew[n, 0], gnew[n, 1], gnew[n, 2]
+        if contact is not None:
+            s = contact.slot_of[n]
+            if s >= 0:
+                u0, u1, u2 = contact.cnew[s, b, 0], contact.cnew[s, b, 1], contact.cnew[s, b, 2]
+        we0, we1, we2 = w[k] * e[k, 0], w[k] * e[k, 1], w[k] * e[k, 2]
+        a00 += u0 * we0
+        a01 += u0 * we1
+        a02 += u0 * we2
+        a10 += u1 * we0
+        a11 += u1 * we1
+        a12 += u1 * we2
+        a20 += u2 * we0
+        a21 += u2 * we1
+        a22 += u2 * we2
+    affine[p, 0], affine[p, 1], affine[p, 2] = a00 * inv_h, a01 * inv_h, a02 * inv_h
+    affine[p, 3], affine[p, 4], affine[p, 5] = a10 * inv_h, a11 * inv_h, a12 * inv_h
+    affine[p, 6], affine[p, 7], affine[p, 8] = a20 * inv_h, a21 * inv_h, a22 * inv_h
 
 
 @njit(cache=True)
