@@ -33,7 +33,8 @@ def run_case(world, args):
     before_setup = current_rss_bytes()
     setup = begin_set_up(world, config, args, checkpoint, out)
     before_compile = current_rss_bytes()
-    compile_s = world.max(warm_up(SHAPE_CODES[config.grid.shape_functions]))
+    apic = config.time.transfer == "apic"
+    compile_s = world.max(warm_up(SHAPE_CODES[config.grid.shape_functions], apic))
     baseline = before_setup + current_rss_bytes() - before_compile
     sim, restart, size = setup()
     if size and not args.quiet:

@@ -8,7 +8,7 @@ from pmpm.particles import COLUMNS, MATERIAL_GROUP, ColumnStore, Particles, colu
 from pmpm.particles.store import IDENTITY9, empty_column
 
 OLD_ORDER = ["x", "v", "mass", "rho", "vol0", "stress", "F", "eps_p", "e_int", "temp", "q",
-             "load_scale", "id", "body", "load", "refine"]
+             "load_scale", "id", "body", "load", "refine", "affine"]
 
 
 class Elements(ColumnStore):
@@ -30,6 +30,7 @@ def test_particle_columns_keep_their_order_and_types():
     assert list(COLUMNS) == OLD_ORDER
     assert COLUMNS["stress"] == (np.float64, 6) and COLUMNS["F"] == (np.float64, 9)
     assert COLUMNS["id"] == (np.int64, 1) and COLUMNS["refine"] == (np.int32, 1)
+    assert COLUMNS["affine"] == (np.float64, 9)
     assert list(Particles.empty(3).columns()) == OLD_ORDER
     assert tuple(MATERIAL_GROUP) == MATERIAL_COLUMNS
 
@@ -85,7 +86,7 @@ def test_append_and_replace_column():
 
 
 def test_sizes():
-    per = 8 * (3 + 3 + 1 + 1 + 1 + 6 + 9 + 1 + 1 + 1 + 1 + 1) + 8 + 3 * 4
+    per = 8 * (3 + 3 + 1 + 1 + 1 + 6 + 9 + 1 + 1 + 1 + 1 + 1 + 9) + 8 + 3 * 4
     assert Particles.bytes_per_particle() == per == Particles.bytes_per_row()
     assert Particles.empty(7).nbytes() == 7 * per
     assert Particles.row_dtype().itemsize >= per

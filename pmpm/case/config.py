@@ -108,6 +108,7 @@ class TimeConfig:
     cfl: float
     dt_max: float | None
     pic: float
+    transfer: str
     scheme: str
     max_steps: float
 

@@ -23,6 +23,7 @@ use) and ``separation`` (cells; inf: no separation check); see ``pmpm.kernels.re
 import numpy as np
 from numba import njit
 
+from .affine import affine_velocity_matrix
 from .boundary import constrain_coded
 from .shape import point_axes
 
@@ -69,19 +70,24 @@ def number_contact_nodes(mask, slot_of):
 
 
 @njit(cache=True)
-def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
+def contact_particles_to_grid(pts, geo, slot_of, cnodal, want, affine=None):
     """Each body's mass, momentum, mass gradient (Eqs. 27-28, 9) and mass-weighted
     offset from the node (in cells) at the contact nodes, from the points with
-    ``level[p] == want``."""
+    ``level[p] == want``. With ``affine`` (APIC, ``pmpm.kernels.affine``) the momentum
+    carries the particle's affine velocity as in ``pmpm.kernels.mpm.particles_to_grid``,
+    so that each body's momentum sums to the shared field's."""
     x, v, mass, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
+    M = np.zeros((3, 3))
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
         b, m = body[p], mass[p]
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
+        if affine is not None:
+            affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
         for a in range(reach):
             for bb in range(reach):
                 for cc in range(reach):
@@ -91,9 +97,15 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want):
                     wx, wy, wz = axes[0, a], axes[3, bb], axes[6, cc]
                     mw = m * wx * wy * wz
                     cnodal[s, b, 0] += mw
-                    cnodal[s, b, 1] += mw * v[p, 0]
-                    cnodal[s, b, 2] += mw * v[p, 1]
-                    cnodal[s, b, 3] += mw * v[p, 2]
+                    if affine is not None:
+                        e0, e1, e2 = -axes[2, a], -axes[5, bb], -axes[8, cc]
+                        for d in range(3):
+                            cnodal[s, b, 1 + d] += mw * (v[p, d] + M[d, 0] * e0
+                                                         + M[d, 1] * e1 + M[d, 2] * e2)
+                    else:
+                        cnodal[s, b, 1] += mw * v[p, 0]
+                        cnodal[s, b, 2] += mw * v[p, 1]
+                        cnodal[s, b, 3] += mw * v[p, 2]
                     cnodal[s, b, 4] += m * (axes[1, a] * inv_h) * wy * wz
                     cnodal[s, b, 5] += m * wx * (axes[4, bb] * inv_h) * wz
                     cnodal[s, b, 6] += m * wx * wy * (axes[7, cc] * inv_h)

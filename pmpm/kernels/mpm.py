@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 
 from ..materials.kernels import update_stress_columns
+from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
 from .shape import MAX_NODES, stencil
 
@@ -29,14 +30,18 @@ NODAL_COMPONENTS = 8
 
 
 @njit(cache=True)
-def particles_to_grid(pts, rigid, geo, nodal, want):
-    """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots."""
+def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
+    """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots.
+    With ``affine`` (the particles' A_p, (n, 9), see ``pmpm.kernels.affine``; 27-node
+    shapes only) a deformable particle's momentum at node i is m_p w_ip (v_p +
+    B_p D_p^{-1} (x_i - x_p)) (APIC)."""
     x, v, mass, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
+    e, M = np.zeros((MAX_NODES, 3)), np.zeros((3, 3))
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
@@ -44,12 +49,31 @@ def particles_to_grid(pts, rigid, geo, nodal, want):
                         nodes, w, gx, gy, gz)
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
+        if affine is not None and slot == 0:
+            node_offsets(axes, e)
+            affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
+            _scatter_affine(nodal, nodes, w, e, reach, m, v[p, 0], v[p, 1], v[p, 2], M)
+            continue
         for k in range(reach):
             n, mw = nodes[k], m * w[k]
             nodal[n, slot] += mw
             nodal[n, slot + 1] += mw * v[p, 0]
             nodal[n, slot + 2] += mw * v[p, 1]
             nodal[n, slot + 3] += mw * v[p, 2]
+
+
+@njit(cache=True, inline="always")
+def _scatter_affine(nodal, nodes, w, e, reach, m, v0, v1, v2, M):
+    """Mass and the momentum m w_k (v + M e_k) of one particle onto its nodes."""
+    m00, m01, m02, m10, m11, m12 = M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2]
+    m20, m21, m22 = M[2, 0], M[2, 1], M[2, 2]
+    for k in range(reach):
+        n, mw = nodes[k], m * w[k]
+        e0, e1, e2 = e[k, 0], e[k, 1], e[k, 2]
+        nodal[n, 0] += mw
+        nodal[n, 1] += mw * (v0 + m00 * e0 + m01 * e1 + m02 * e2)
+        nodal[n, 2] += mw * (v1 + m10 * e0 + m11 * e1 + m12 * e2)
+        nodal[n, 3] += mw * (v2 + m20 * e0 + m21 * e1 + m22 * e2)
 
 
 @njit(cache=True)
@@ -93,13 +117,17 @@ def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
 
 
 @njit(cache=True)
-def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
+def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None):
     """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
     accelerations (Eq. 16, FLIP); rigid particles move with their own velocity. At contact
     nodes a particle reads its own body's field ``cnew`` (seed 001 Eqs. 33-34). With
     ``pic`` > 0 the new velocity is ``(1 - pic)`` times the FLIP one plus ``pic`` times
-    the new nodal velocity at the particle (PIC), which damps. Returns the index of the
-    first particle whose new position is not finite, else -1."""
+    the new nodal velocity at the particle (PIC), which damps. With ``affine`` (APIC, see
+    ``pmpm.kernels.affine``; 27-node shapes) the new velocity is the PIC one and the
+    particle's A_p = sum_i w_ip v_i (x_i - x_p)^T / h^2 is gathered from the new nodal
+    velocities at the start-of-step position (``pic`` is then not used; rigid particles
+    keep A_p = 0). Returns the index of the first particle whose new position is not
+    finite, else -1."""
     x, v, _, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
@@ -108,6 +136,7 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
+    e = np.zeros((MAX_NODES, 3))
     bad = -1
     for p in range(x.shape[0]):
         if level[p] != want:
@@ -139,19 +168,51 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic):
                 dv0 += wk * cnew[s, b, 3]
                 dv1 += wk * cnew[s, b, 4]
                 dv2 += wk * cnew[s, b, 5]
+        if affine is not None:
+            _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
         x[p, 0] += dt * dx0
         x[p, 1] += dt * dx1
         x[p, 2] += dt * dx2
         v[p, 0] += dt * dv0
         v[p, 1] += dt * dv1
         v[p, 2] += dt * dv2
-        if pic > 0.0:
+        if affine is not None:
+            v[p, 0], v[p, 1], v[p, 2] = dx0, dx1, dx2
+        elif pic > 0.0:
             v[p, 0] = (1.0 - pic) * v[p, 0] + pic * dx0
             v[p, 1] = (1.0 - pic) * v[p, 1] + pic * dx1
             v[p, 2] = (1.0 - pic) * v[p, 2] + pic * dx2
         if bad < 0 and not (np.isfinite(x[p, 0]) and np.isfinite(x[p, 1]) and np.isfinite(x[p, 2])):
             bad = p
     return bad
+
+
+@njit(cache=True, inline="always")
+def _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e):
+    """affine[p] = sum_i w_ip v_i (x_i - x_p)^T / h^2 from the new nodal velocities (at
+    contact nodes the particle's own body's, ``contact.cnew``); ``e`` is scratch."""
+    node_offsets(axes, e)
+    a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = 0.0
+    for k in range(reach):
+        n = nodes[k]
+        u0, u1, u2 = gnew[n, 0], gnew[n, 1], gnew[n, 2]
+        if contact is not None:
+            s = contact.slot_of[n]
+            if s >= 0:
+                u0, u1, u2 = contact.cnew[s, b, 0], contact.cnew[s, b, 1], contact.cnew[s, b, 2]
+        we0, we1, we2 = w[k] * e[k, 0], w[k] * e[k, 1], w[k] * e[k, 2]
+        a00 += u0 * we0
+        a01 += u0 * we1
+        a02 += u0 * we2
+        a10 += u1 * we0
+        a11 += u1 * we1
+        a12 += u1 * we2
+        a20 += u2 * we0
+        a21 += u2 * we1
+        a22 += u2 * we2
+    affine[p, 0], affine[p, 1], affine[p, 2] = a00 * inv_h, a01 * inv_h, a02 * inv_h
+    affine[p, 3], affine[p, 4], affine[p, 5] = a10 * inv_h, a11 * inv_h, a12 * inv_h
+    affine[p, 6], affine[p, 7], affine[p, 8] = a20 * inv_h, a21 * inv_h, a22 * inv_h
 
 
 @njit(cache=True)

@@ -16,9 +16,10 @@ from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, G
 N = 27   # nodes of the warm-up block
 
 
-def warm_up(shape_code=LINEAR):
+def warm_up(shape_code=LINEAR, apic=False):
     """Return the seconds spent compiling or loading the kernels (for the shape functions
-    ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels)."""
+    ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels;
+    with ``apic`` also the transfers' affine variants)."""
     started = time.perf_counter()
     refresh_inlined_caches()
     # 3 x 3 x 3 nodes: what a 27-node shape reaches from the point at (0.5, 0.5, 0.5)
@@ -39,14 +40,19 @@ def warm_up(shape_code=LINEAR):
     loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(1, -1, np.int32), np.zeros(1))
     nodal = np.zeros((N, mpm.NODAL_COMPONENTS))
     gvel, force, gnew = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6))
-    slots, view = warm_up_contact(pts, geo, block, gvel, gnew)
+    affine = np.zeros((1, 9)) if apic else None
+    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine)
     mpm.particles_to_grid(pts, rigid, geo, nodal, 0)
+    if apic:
+        mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine)
     mpm.nodal_velocities(nodal, block, 0.0, gvel)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, block, 0.0, gnew)
     for contact_view in (None, view):
         mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
                               contact_view, 0, True, True)
         mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0)
+        if apic:
+            mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, affine)
     x, level = pts.x, pts.level
     mpm.cell_keys(x, geo.origin, 1.0, n_cells)
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
@@ -57,7 +63,7 @@ def warm_up(shape_code=LINEAR):
     return time.perf_counter() - started
 
 
-def warm_up_contact(pts, geo, block, gvel, gnew):
+def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):
     """The contact kernels; returns the (empty) slots and view they leave."""
     mask, slot_of = np.zeros(N, np.int64), np.zeros(N, np.int64)
     contact.body_masks(pts, geo, mask, 0)
@@ -65,6 +71,8 @@ def warm_up_contact(pts, geo, block, gvel, gnew):
     cnodal = np.zeros((0, 1, contact.CNODAL))
     cvel, cforce, cnew = np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1, 6))
     contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0)
+    if affine is not None:
+        contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, affine)
     slots = ContactSlots(cnodal, slot_nodes, cvel, cvel.copy(), cforce, cnew)
     rules = PairRules(np.zeros((1, 1), np.int64), np.zeros((1, 1)), np.full((1, 1), np.inf))
     rigid = np.zeros(1, np.bool_)

@@ -8,7 +8,9 @@ offsets ((a + 1/2)/n - 1/2, ...) for a, b, c = 0..n-1. With F diagonal this is E
 L_i = L0 (1 + eps_i); F also carries shear and rotation. Mass, volume and the share of a
 load are divided among the children (the specific internal energy e_int, per unit mass,
 is then divided with the mass); stress, F, density, plastic strain, temperature and every
-other history variable are copied.
+other history variable are copied, and so is the APIC matrix ``affine`` (stored per cell
+of the particle's level, so the children keep the parent's velocity gradient; their
+velocities are the parent's, which keeps linear momentum exactly).
 
 Children get new global ids that depend only on the parent's id, so they are unique
 across ranks and the same on any number of ranks: ``id_base + parent_id * id_stride + k``

@@ -15,7 +15,7 @@ F8, I8, I4 = np.float64, np.int64, np.int32
 COLUMNS = column_table(
     [("x", F8, 3), ("v", F8, 3), ("mass", F8, 1), "rho", ("vol0", F8, 1), "stress", "F",
      "eps_p", "e_int", "temp", "q", ("load_scale", F8, 1), ("id", I8, 1),
-     ("body", I4, 1), ("load", I4, 1), ("refine", I4, 1)],
+     ("body", I4, 1), ("load", I4, 1), ("refine", I4, 1), ("affine", F8, 9)],
     groups=[MATERIAL_GROUP])
 
 IDENTITY9 = np.eye(3).reshape(9)
@@ -32,6 +32,8 @@ class Particles(ColumnStore):
     def __init__(self, columns):
         if "refine" not in columns and "mass" in columns:    # checkpoints before windows
             columns = dict(columns, refine=np.ones(len(columns["mass"]), np.int32))
+        if "affine" not in columns and "mass" in columns:    # checkpoints before APIC
+            columns = dict(columns, affine=np.zeros((len(columns["mass"]), 9)))
         super().__init__(columns)
 
     @classmethod

@@ -23,13 +23,17 @@ class ParticleBodies:
     bodies : solver.bodies.BodyTable
     gravity : (3,) array
     pic : float   share of the PIC velocity in the particle velocity update (0: FLIP)
+    transfer : str   ``flip`` (the FLIP/PIC blend of ``pic``) or ``apic`` (the affine
+        transfer, pmpm.kernels.affine: the particles' ``affine`` column is scattered with
+        the momentum and gathered with the velocity)
     """
 
     label = "particle"
 
-    def __init__(self, particles, bodies, gravity, pic=0.0):
+    def __init__(self, particles, bodies, gravity, pic=0.0, transfer="flip"):
         self.particles, self.bodies = particles, bodies
         self.pic = float(pic)
+        self.apic = transfer == "apic"
         self.gravity = np.asarray(gravity, dtype=np.float64)
         self.load_vectors = np.zeros((1, 3))
         self.materials = BodyMaterials(bodies.codes, bodies.params, bodies.rigid)
@@ -45,6 +49,10 @@ class ParticleBodies:
     def loads(self):
         p = self.particles
         return ExternalLoads(self.gravity, self.load_vectors, p.load, p.load_scale)
+
+    def affine(self):
+        """The APIC matrices the transfer kernels read and write, or None under FLIP."""
+        return self.particles.affine if self.apic else None
 
     @property
     def n(self):
@@ -64,7 +72,7 @@ class ParticleBodies:
     # -- phases ------------------------------------------------------------------------
     def scatter_mass_momentum(self, state):
         mpm.particles_to_grid(self.points(), self.bodies.rigid, state.geometry, state.nodal,
-                              state.index)
+                              state.index, self.affine())
 
     def mark_occupied(self, coarse, occupied):
         """The coarse nodes of cells holding coarse particles (the tied-interface search)."""
@@ -77,7 +85,7 @@ class ParticleBodies:
 
     def scatter_contact(self, state, slot_of, cnodal):
         kc.contact_particles_to_grid(self.points(), state.geometry, slot_of, cnodal,
-                                     state.index)
+                                     state.index, self.affine())
 
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.points(), state.geometry, slot_of, cext, state.index)
@@ -113,7 +121,8 @@ class ParticleBodies:
 
     def grid_to_points(self, state, dt, contact):
         bad = mpm.grid_to_particles(self.points(), self.bodies.rigid, dt, state.geometry,
-                                    state.gnew, contact, state.index, self.pic)
+                                    state.gnew, contact, state.index, self.pic,
+                                    self.affine())
         self.note_fault(bad, "position is not finite")
 
     # -- MUSL: the stress update runs at the start-of-step positions --------------------

@@ -192,9 +192,12 @@ class Runner:
 
     def write_frame(self):
         p = self.sim.particles
-        self.writer.write_frame(self.sim.time, self.sim.step_count, {
-            "x": p.x, "v": p.v, "stress": p.stress, "eps_p": p.eps_p, "density": p.rho,
-            "mass": p.mass, "body": p.body, "id": p.id, "temp": p.temp, "e_int": p.e_int})
+        columns = {"x": p.x, "v": p.v, "stress": p.stress, "eps_p": p.eps_p,
+                   "density": p.rho, "mass": p.mass, "body": p.body, "id": p.id,
+                   "temp": p.temp, "e_int": p.e_int}
+        if self.sim.points.apic:
+            columns["affine"] = p.affine
+        self.writer.write_frame(self.sim.time, self.sim.step_count, columns)
         if self.element_writer:
             self.element_writer.write_frame(self.sim.time, self.sim.step_count)
         self.frame_index += 1

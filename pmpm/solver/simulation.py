@@ -43,7 +43,8 @@ class Simulation:
         levels = [Level(grid, w, HALO[shape] * (w.ratio if w else 1))
                   for w in [None] + self.windows]
         self.grids = Hierarchy(levels, world, shape, bodies.half_width)
-        self.points = ParticleBodies(particles, bodies, config.gravity, config.time.pic)
+        self.points = ParticleBodies(particles, bodies, config.gravity, config.time.pic,
+                                     config.time.transfer)
         self.kinds = [self.points]
         self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows,
                                            len(bodies.names))
