@@ -177,3 +177,20 @@ def test_a_volume_gap_that_cannot_work_is_refused(sets, problem):
     with pytest.raises(CaseError) as error:
         load_case(CASE, sets)
     assert error.value.problems == [problem]
+
+
+def test_one_rank_equals_two_with_the_volume_gap(tmp_path):
+    """The volume gap's shares are summed over the slab plane like the other contact
+    fields: Lb = Ls puts the plane on the contact plane (gimp, the lighter striker)."""
+    sets = SHORT + ["time.end=0.012", "params.rho_s=2.5e-3", "params.Lb=10.0",
+                    "grid.shape_functions=gimp", "contact.gap=volume"]
+    one, two = tmp_path / "one", tmp_path / "two"
+    run_pmpm(CASE, one, 1, sets)
+    run_pmpm(CASE, two, 2, sets + ["decomposition.axis=x"])
+    a, b = read_history(one), read_history(two)
+    for name in ("striker.vx", "bar.vx", "total"):
+        np.testing.assert_allclose(a[name], b[name], rtol=1e-9, atol=1e-12)
+    fa, fb = read_frame(one), read_frame(two)
+    np.testing.assert_allclose(fa["x"], fb["x"], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(fa["v"], fb["v"], rtol=0, atol=1e-9)
+    assert a["striker.vx"][-1] < 0                          # it rebounds
