@@ -41,6 +41,15 @@ def write_case(tmp_path, tree, name="case.yaml"):
     return path
 
 
+def run_summary(tmp_path, geometry):
+    """Run the one-body case of ``geometry``; (output folder, summary.json)."""
+    out = tmp_path / "out"
+    done = pmpm([write_case(tmp_path, case_tree(geometry)), "--out", out, "--quiet"])
+    assert done.returncode == 0, done.stderr
+    with open(out / "summary.json") as f:
+        return out, json.load(f)
+
+
 def write_hex_mesh(path, invert=False):
     """A 2 x 2 x 2 block of unit hexahedra in a .vtu file."""
     points, hexes = box_mesh([0, 0, 0], [2, 2, 2], [2, 2, 2])
@@ -76,11 +85,7 @@ def test_a_mesh_body_falls_freely_under_gravity(tmp_path):
     write_hex_mesh(tmp_path / "block.vtu")
     geometry = {"type": "mesh", "file": "block.vtu", "translate": [-1, -1, -1],
                 "rotate": {"axis": [0, 1, 1], "angle_deg": 30}}
-    out = tmp_path / "out"
-    done = pmpm([write_case(tmp_path, case_tree(geometry)), "--out", out, "--quiet"])
-    assert done.returncode == 0, done.stderr
-    with open(out / "summary.json") as f:
-        summary = json.load(f)
+    out, summary = run_summary(tmp_path, geometry)
     block = summary["bodies"]["block"]
     assert block["mass"] == pytest.approx(8 * 7.8e-3, rel=1e-12)
     assert block["n_elements"] == 8 and block["n_nodes"] == 27
@@ -585,11 +590,7 @@ def test_an_fem_sphere_falls_freely_and_weighs_its_elements(tmp_path):
     elements across)."""
     geometry = {"type": "sphere", "center": [0, 0, 0], "radius": 3.0,
                 "rotate": {"axis": [1, 1, 0], "angle_deg": 20}}
-    out = tmp_path / "out"
-    done = pmpm([write_case(tmp_path, case_tree(geometry)), "--out", out, "--quiet"])
-    assert done.returncode == 0, done.stderr
-    with open(out / "summary.json") as f:
-        summary = json.load(f)
+    _, summary = run_summary(tmp_path, geometry)
     block = summary["bodies"]["block"]
     points, hexes = hex_mesh(geometry | {"rotate": None}, 1.0)
     vols = np.empty(len(hexes))

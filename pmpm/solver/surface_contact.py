@@ -114,15 +114,22 @@ class SurfaceContact(Coupling):
         self.face_nodes = np.ascontiguousarray(faces[keep])
         self.face_key = key[keep]
         self.holders = node_holders(self.world.rank, fem.partners, len(fem.x))
-
-    def own_segments(self):
-        """This rank's segments with their nodes' current state."""
-        fem, nodes = self.elements, self.face_nodes
+        # per segment node: 1 / m, 0 where the node takes no impulse (held in every
+        # component, or rigid); masses and holds do not change between refreshes
         inv_m = np.where(fem.fixed.all(axis=1), 0.0, 1.0 / fem.mass)
         inv_m[fem.rigid_nodes()] = 0.0
-        return {"gid": fem.node_id[nodes], "x": fem.x[nodes], "v": fem.v[nodes],
-                "inv_m": inv_m[nodes], "body": fem.node_body[nodes[:, 0]].astype(np.int64),
-                "key": self.face_key, "holders": self.holders[nodes]}
+        self.face_inv_m = inv_m[self.face_nodes]
+        self.face_gid = fem.node_id[self.face_nodes]
+        self.face_body = fem.node_body[self.face_nodes[:, 0]].astype(np.int64)
+        self.face_holders = self.holders[self.face_nodes]
+
+    def own_segments(self):
+        """This rank's segments with their nodes' current state (what does not change
+        between refreshes is kept from :meth:`refresh_faces`)."""
+        fem, nodes = self.elements, self.face_nodes
+        return {"gid": self.face_gid, "x": fem.x[nodes], "v": fem.v[nodes],
+                "inv_m": self.face_inv_m, "body": self.face_body,
+                "key": self.face_key, "holders": self.face_holders}
 
     def with_halo(self, own):
         """Own segments plus copies of the other ranks' segments that may reach this
