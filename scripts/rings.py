@@ -39,6 +39,8 @@ def main():
                         help="grid.shape_functions (the case's own: linear, as the paper)")
     parser.add_argument("--out", default=None, help="default: results/rings (MUSL) or "
                         "results/rings_usf")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="case override applied to every run, e.g. contact.release=0")
     parser.add_argument("--plot-only", action="store_true", help="re-plot saved results")
     args = parser.parse_args()
     args.out = args.out or os.path.join(ROOT, "results", "rings" + (
@@ -63,7 +65,7 @@ def measure(method, cfl, args):
         summary = run_case(CASE, out, args.ranks,
                            [f"params.method={method}", f"params.cfl={cfl}",
                             f"time.scheme={args.scheme}",
-                            f"grid.shape_functions={args.shape}"])
+                            f"grid.shape_functions={args.shape}", *args.set])
     except subprocess.CalledProcessError:           # a fault: keep the history up to it
         hist = read_history(out)
         return {"method": method, "cfl": cfl, "failed_at": float(hist["time"][-1]),

@@ -28,6 +28,8 @@ def main():
     parser.add_argument("--methods", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cell", type=float, default=200.0, help="cell edge (mm)")
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "sphere_rolling"))
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="case override applied to every run, e.g. contact.release=0")
     parser.add_argument("--plot-only", action="store_true", help="re-plot saved results")
     args = parser.parse_args()
     if args.plot_only:
@@ -48,7 +50,7 @@ def measure(name, method, args):
     out = run_dir(args.out, name, method)
     summary = run_case(CASE, out, args.ranks, [f"params.theta={theta!r}", f"params.mu={mu}",
                                                f"params.method={method}",
-                                               f"params.cell={args.cell}"])
+                                               f"params.cell={args.cell}", *args.set])
     return {"case": name, "theta": theta, "mu": mu, "method": method, "cell": args.cell,
             **travel_against_eq36(out, theta, mu), "n_steps": summary["n_steps"],
             "n_particles": summary["n_particles"]["initial"], "wall_s": summary["wall_s"],
