@@ -27,21 +27,75 @@ def node_block(shape, lo, strides, n_cells, bc):
 
 
 def contact_start(cnodal, slots, gvel, master, separation, rigid, method, m_tiny, shape, lo,
-                  strides, n_cells, bc, cvel, cnorm):
+                  strides, n_cells, bc, cvel, cnorm, flat=0.0):
     """kc.contact_start with its records built from plain arrays."""
     record = ContactSlots(cnodal, slots, cvel, cnorm, np.zeros((0, 1, 3)), np.zeros((0, 1, 6)))
     rules = PairRules(master, np.zeros(master.shape), separation)
     kc.contact_start(record, gvel, rules, rigid, method, m_tiny,
-                     node_block(shape, lo, strides, n_cells, bc))
+                     node_block(shape, lo, strides, n_cells, bc), flat)
 
 
 def contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, friction, separation, rigid,
-                skip, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew):
+                skip, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew, whole_step=False):
     """kc.contact_end with its records built from plain arrays."""
     record = ContactSlots(cnodal, slots, cvel, cnorm, cforce, cnew)
     rules = PairRules(np.full(friction.shape, -1, np.int64), friction, separation)
     kc.contact_end(record, gvel, gnew, rules, rigid, skip, dt, m_tiny,
-                   node_block(shape, lo, strides, n_cells, bc))
+                   node_block(shape, lo, strides, n_cells, bc), whole_step)
+
+
+ONE_NODE = (np.array([1, 1, 1]), np.zeros(3, np.int64), np.array([1, 1, 1]),
+            np.array([10 ** 6] * 3), np.zeros(6, np.int64))
+
+
+@pytest.mark.parametrize("master", [1, -1])
+def test_release_rule_takes_the_normal_of_the_body_that_has_a_surface_at_the_node(master):
+    """A node inside body 1 (its mass gradient is round-off, here along x) that the
+    outermost particles of body 0 reach, whose surface faces -z there: seed 001's
+    normals follow body 1's round-off; under the release rule (flat = kc.FLAT) both
+    bodies take body 0's normal, whether body 1 is the pair's master or the normals are
+    averaged."""
+    cnodal = np.zeros((1, 2, kc.CNODAL))
+    cnodal[0, :, 0] = [0.01, 1.0]                         # body 0's fringe, body 1 inside
+    cnodal[0, 0, 4:7] = [0.0, 0.0, -0.05]
+    cnodal[0, 1, 4:7] = [3e-12, 0.0, 1e-13]
+    masters = np.full((2, 2), master)
+    found = {}
+    for flat in (0.0, kc.FLAT):
+        cvel, cnorm = np.empty((1, 2, 3)), np.empty((1, 2, 3))
+        contact_start(cnodal, np.arange(1), np.zeros((1, 3)), masters, NO_CHECK,
+                      np.zeros(2, np.bool_), 1, 0.0, *ONE_NODE, cvel, cnorm, flat)
+        found[flat] = cnorm[0].copy()
+    assert np.allclose(found[kc.FLAT], [[0, 0, -1], [0, 0, 1]])
+    assert abs(found[0.0][1, 0]) > 0.5                   # seed 001: along the round-off
+
+
+@pytest.mark.parametrize("whole_step", [False, True])
+def test_release_rule_limits_friction_by_the_whole_step_normal_change(whole_step):
+    """Method 2: body 0 slides at 3 along x while approaching at 1 along +z; the start
+    correction (Eq. 25) takes the approach out, the step's forces make 0.5 of new
+    approach and the end correction takes that out. Coulomb friction mu = 0.2 then
+    takes mu times the node's whole normal change (1.5) under the release rule, and mu
+    times the end correction's alone (0.5) with seed 001's limit."""
+    mu, dt = 0.2, 1.0
+    cnodal = np.zeros((1, 2, kc.CNODAL))
+    cnodal[0, :, 0] = 1.0
+    cnodal[0, 0, 1:4] = [3.0, 0.0, 1.0]
+    cnodal[0, 1, 1:4] = [0.0, 0.0, -1.0]
+    cnodal[0, 0, 4:7] = [0.0, 0.0, 1.0]
+    cnodal[0, 1, 4:7] = [0.0, 0.0, -1.0]
+    gvel = np.array([[1.5, 0.0, 0.0]])
+    gnew = np.array([[1.5, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    cforce = np.array([[[0.0, 0.0, 0.5], [0.0, 0.0, -0.5]]])
+    cvel, cnorm, cnew = np.empty((1, 2, 3)), np.empty((1, 2, 3)), np.empty((1, 2, 6))
+    rigid = np.zeros(2, np.bool_)
+    contact_start(cnodal, np.arange(1), gvel, np.full((2, 2), -1), NO_CHECK, rigid, 2, 0.0,
+                  *ONE_NODE, cvel, cnorm)
+    contact_end(cnodal, cvel, cnorm, cforce, np.arange(1), gvel, gnew, np.full((2, 2), mu),
+                NO_CHECK, rigid, False, dt, 0.0, *ONE_NODE, cnew, whole_step)
+    change = cnew[0, 0, :3] - cnodal[0, 0, 1:4] - cforce[0, 0] * dt   # contact's alone
+    assert change[2] == pytest.approx(-1.5)
+    assert -change[0] == pytest.approx(mu * (1.5 if whole_step else 0.5))
 
 
 def history(out):

@@ -125,8 +125,14 @@ CONTACT = {
                      "the two bodies' surfaces, placed half a particle spacing beyond their "
                      "outermost particles there, are more than this many cells apart along "
                      "the normal, so bodies that part keep their momentum (0: contact only "
-                     "across a closed gap; docs/validation/two_bars.md); left out or "
-                     "`none`: seed 001's contact"),
+                     "across a closed gap; docs/validation/two_bars.md). With it, a node "
+                     "inside one body that the other's outermost particles reach takes "
+                     "the normal of the body that has a surface there, and Coulomb "
+                     "friction is limited by the node's whole normal change of the step "
+                     "(method 2's start correction included), so a sliding impact takes "
+                     "mu times its normal impulse "
+                     "(docs/validation/angular_momentum.md). Left out or `none`: seed "
+                     "001's contact"),
     "gap": Field(choice(GAP_MEASURES, "gap measure"), "reach",
                  doc="how the release rule measures the gap at a node: `reach`: from the "
                      "particles that reach farthest towards the other body, each widened by "

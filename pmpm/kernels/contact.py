@@ -133,7 +133,7 @@ def _heaviest_other(cnodal, s, b, m_tiny):
 
 
 @njit(cache=True)
-def _collinear_normal(cnodal, s, b, other, master, code, rest, out):
+def _collinear_normal(cnodal, s, b, other, master, code, rest, out, flat):
     """The outward normal of body b at slot s against the heaviest other body there:
     the master body's own normal (Sec. 2.3 choices 1-2), else Eq. 10 generalised to
     (n_b - n_rest)/|n_b - n_rest| with n_rest the normal of all other bodies together.
@@ -141,9 +141,19 @@ def _collinear_normal(cnodal, s, b, other, master, code, rest, out):
     faces the node lies on (:func:`pmpm.kernels.boundary.constrain_coded`, ``code``: the node's face codes): a slip
     or symmetry face is a mirror plane, the body's image beyond it has the opposite
     gradient along the face normal, so the surface normal there lies in the face (in a
-    one-cell plane-strain slab every node is on such a face). ``rest`` is scratch space."""
+    one-cell plane-strain slab every node is on such a face). ``rest`` is scratch space.
+
+    With ``flat`` > 0 (the release rule: :data:`FLAT`), a body whose mass gradient per
+    unit mass at the node is below ``flat`` times the other's has no surface there (the
+    node lies inside it, under a surface that the other body's outermost particles
+    reach): the other body's normal alone is taken. Normalised, that small gradient
+    (round-off, or the body's slight non-uniformity) points anywhere, and the contact
+    would push along it. ``flat`` = 0 keeps seed 001's normals."""
     k = master[b, other]
     if k >= 0:
+        j = other if k == b else b
+        if _spread(cnodal, s, k) < flat * _spread(cnodal, s, j):
+            k = j                                  # the master has no surface here
         sign = 1.0 if k == b else -1.0
         for d in range(3):
             out[d] = sign * cnodal[s, k, 4 + d]
@@ -151,19 +161,39 @@ def _collinear_normal(cnodal, s, b, other, master, code, rest, out):
         _normalise(out)
         return
     rest[0] = rest[1] = rest[2] = 0.0
+    rest_mass = 0.0
     for c in range(cnodal.shape[1]):
         if c != b:
+            rest_mass += cnodal[s, c, 0]
             for d in range(3):
                 rest[d] += cnodal[s, c, 4 + d]
+    rest_spread = np.sqrt(rest[0] ** 2 + rest[1] ** 2 + rest[2] ** 2) / rest_mass
+    own_spread = _spread(cnodal, s, b)
     constrain_coded(rest, code)
     _normalise(rest)
     for d in range(3):
-        out[d] = cnodal[s, b, 4 + d]
+        out[d] = cnodal[s, b, 4 + d] if own_spread >= flat * rest_spread else 0.0
+        rest[d] = rest[d] if rest_spread >= flat * own_spread else 0.0
     constrain_coded(out, code)
     _normalise(out)
     for d in range(3):
         out[d] -= rest[d]
     _normalise(out)
+
+
+#: Under the release rule a body has no surface at a node where its mass gradient per
+#: unit mass is below this fraction of the other body's there (a surface node's is of
+#: order 1 / cell, a node inside a body's is round-off or its slight non-uniformity).
+FLAT = 0.05
+
+
+@njit(cache=True, inline="always")
+def _spread(cnodal, s, c):
+    """|grad m_c| / m_c of body c at slot s (1/length; 0 without mass)."""
+    m = cnodal[s, c, 0]
+    if m <= 0.0:
+        return 0.0
+    return np.sqrt(cnodal[s, c, 4] ** 2 + cnodal[s, c, 5] ** 2 + cnodal[s, c, 6] ** 2) / m
 
 
 @njit(cache=True, inline="always")
@@ -182,12 +212,13 @@ def _separated(cnodal, s, b, other, normal, limit):
 
 
 @njit(cache=True)
-def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block):
+def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block, flat=0.0):
     """Per-body velocities (Eq. 6) and collinear normals at the contact nodes; method 2
     sets the normal velocity of each approaching body to the centre of mass's (Eqs. 23,
     25, slip form), within the node's boundary conditions, unless the two bodies are
     separated there (:func:`_separated`). ``gvel`` is the shared (centre-of-mass, Eq. 7)
-    velocity. Writes ``slots.cvel`` and ``slots.cnorm``."""
+    velocity; ``flat``: see :func:`_collinear_normal`. Writes ``slots.cvel`` and
+    ``slots.cnorm``."""
     cnodal, slot_nodes, cvel, cnorm, _, _ = slots
     master, _, separation = rules
     faces = block.faces
@@ -203,7 +234,7 @@ def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block):
             other = _heaviest_other(cnodal, s, b, m_tiny) if m > m_tiny else -1
             if other >= 0:
                 _collinear_normal(cnodal, s, b, other, master, faces[n], rest,
-                                  cnorm[s, b])
+                                  cnorm[s, b], flat)
                 if method == 2 and not body_rigid[b] and not _separated(
                         cnodal, s, b, other, cnorm[s, b], separation[b, other]):
                     approach = 0.0
@@ -218,7 +249,8 @@ def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block):
 
 
 @njit(cache=True)
-def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tiny, block):
+def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tiny, block,
+                whole_step_coulomb=False):
     """Trial velocities of each body alone (Eqs. 11, 26); where a body approaches the
     centre of mass (Eq. 12) and is not separated from the other body (:func:`_separated`)
     the contact force of Eq. 22 (normal part Eq. 17, no-slip tangential part Eq. 21
@@ -231,7 +263,14 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
     corrected at the end: the particles' velocities still separate there, and the
     correction would do positive work on them (the elastic rings of seed 001 Sec. 5.1
     gained 20-30 % of their energy so). Without it, Eq. 12 alone decides, as in the
-    paper. Writes ``slots.cnew``."""
+    paper.
+
+    Friction is limited to mu times the normal part of this correction; with
+    ``whole_step_coulomb`` (the release rule) to mu times the node's whole normal
+    change of the step, method 2's start correction (Eq. 25, normal only) included, so
+    that a body sliding through an impact takes mu times its normal impulse (seed
+    001's limit gave 0.92 mu where the start correction carries 8 % of it:
+    docs/validation/angular_momentum.md). Writes ``slots.cnew``."""
     acc, tangent = np.empty(3), np.empty(3)
     faces = block.faces
     cnodal, slot_nodes, cvel, cnorm, cforce, cnew = slots
@@ -256,8 +295,12 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
                     for d in range(3):
                         before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
                 if approach > 0.0 and before >= 0.0:
+                    started = 0.0          # Eq. 25's normal change, per unit time
+                    if whole_step_coulomb:
+                        for d in range(3):
+                            started += (cvel[s, b, d] - cnodal[s, b, 1 + d] / m) * cnorm[s, b, d]
                     _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
-                                              friction[b, other], dt, tangent)
+                                              friction[b, other], dt, tangent, started / dt)
                     constrain_coded(acc, faces[n])
             for d in range(3):
                 cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
@@ -265,10 +308,11 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
 
 
 @njit(cache=True, inline="always")
-def _add_contact_acceleration(v0, acc, normal, cm_new, mu, dt, tangent):
+def _add_contact_acceleration(v0, acc, normal, cm_new, mu, dt, tangent, started):
     """acc += f_ct / m (Eq. 22), all per unit mass: the stick correction
     (v_cm - v_trial)/dt split into its normal part and the tangential rest, the latter
-    limited to mu times the normal part."""
+    limited to mu times the normal part plus ``started`` (the normal change already
+    made this step, per unit time; both point the same way)."""
     normal_part = 0.0
     for d in range(3):
         tangent[d] = (cm_new[d] - v0[d] - acc[d] * dt) / dt
@@ -276,7 +320,7 @@ def _add_contact_acceleration(v0, acc, normal, cm_new, mu, dt, tangent):
     for d in range(3):
         tangent[d] -= normal_part * normal[d]
     stick = _normalise(tangent)
-    slide = min(mu * abs(normal_part), stick)
+    slide = min(mu * abs(normal_part + started), stick)
     for d in range(3):
         acc[d] += normal_part * normal[d] + slide * tangent[d]
 

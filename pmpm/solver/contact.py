@@ -137,7 +137,8 @@ class GridContact(Coupling):
             f.cvel = f.slot_array("cvel", 3, nb, zero=False)
             f.cnorm = f.slot_array("cnorm", 3, nb, zero=False)
             kc.contact_start(f.slots(), s.gvel, self.pairs, self.bodies.rigid,
-                             self.rules.method, self.m_tiny, s.nodes)
+                             self.rules.method, self.m_tiny, s.nodes,
+                             kc.FLAT if self.rules.releases else 0.0)
             if self.rules.releases:
                 kc.release_open_gaps(f.slots(), f.cext, f.cvol, self.rules.release,
                                      s.geometry.half_width, self.m_tiny, s.nodes)
@@ -149,7 +150,8 @@ class GridContact(Coupling):
             f.sum_on_shared_planes(s.block, f.cforce)
             f.cnew = f.slot_array("cnew", kc.CNEW, f.cnodal.shape[1], zero=False)
             kc.contact_end(f.slots(), s.gvel, s.gnew, self.pairs, self.bodies.rigid,
-                           self.rules.skip_separating, dt, self.m_tiny, s.nodes)
+                           self.rules.skip_separating, dt, self.m_tiny, s.nodes,
+                           bool(self.rules.releases))
 
     def view(self, state):
         return self.fields[state.index].view()
