@@ -36,12 +36,13 @@ def contact_start(cnodal, slots, gvel, master, separation, rigid, method, m_tiny
 
 
 def contact_end(cnodal, cvel, cnorm, cforce, slots, gvel, gnew, friction, separation, rigid,
-                skip, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew, whole_step=False):
+                skip, dt, m_tiny, shape, lo, strides, n_cells, bc, cnew, start_share=0.0):
     """kc.contact_end with its records built from plain arrays."""
     record = ContactSlots(cnodal, slots, cvel, cnorm, cforce, cnew)
     rules = PairRules(np.full(friction.shape, -1, np.int64), friction, separation)
     kc.contact_end(record, gvel, gnew, rules, rigid, skip, dt, m_tiny,
-                   node_block(shape, lo, strides, n_cells, bc), whole_step)
+                   node_block(shape, lo, strides, n_cells, bc),
+                   np.full(cnodal.shape[1], float(start_share)))
 
 
 ONE_NODE = (np.array([1, 1, 1]), np.zeros(3, np.int64), np.array([1, 1, 1]),
@@ -70,13 +71,14 @@ def test_release_rule_takes_the_normal_of_the_body_that_has_a_surface_at_the_nod
     assert abs(found[0.0][1, 0]) > 0.5                   # seed 001: along the round-off
 
 
-@pytest.mark.parametrize("whole_step", [False, True])
-def test_release_rule_limits_friction_by_the_whole_step_normal_change(whole_step):
+@pytest.mark.parametrize("start_share", [0.0, 0.5, 1.0])
+def test_friction_is_limited_by_the_normal_change_the_body_keeps(start_share):
     """Method 2: body 0 slides at 3 along x while approaching at 1 along +z; the start
     correction (Eq. 25) takes the approach out, the step's forces make 0.5 of new
     approach and the end correction takes that out. Coulomb friction mu = 0.2 then
-    takes mu times the node's whole normal change (1.5) under the release rule, and mu
-    times the end correction's alone (0.5) with seed 001's limit."""
+    takes mu times the end correction's normal change (0.5) plus the share of the start
+    correction's (1) that reaches the body's velocities: all of it under APIC, none
+    under FLIP (seed 001's limit), a FLIP/PIC blend's PIC fraction."""
     mu, dt = 0.2, 1.0
     cnodal = np.zeros((1, 2, kc.CNODAL))
     cnodal[0, :, 0] = 1.0
@@ -92,10 +94,10 @@ def test_release_rule_limits_friction_by_the_whole_step_normal_change(whole_step
     contact_start(cnodal, np.arange(1), gvel, np.full((2, 2), -1), NO_CHECK, rigid, 2, 0.0,
                   *ONE_NODE, cvel, cnorm)
     contact_end(cnodal, cvel, cnorm, cforce, np.arange(1), gvel, gnew, np.full((2, 2), mu),
-                NO_CHECK, rigid, False, dt, 0.0, *ONE_NODE, cnew, whole_step)
+                NO_CHECK, rigid, False, dt, 0.0, *ONE_NODE, cnew, start_share)
     change = cnew[0, 0, :3] - cnodal[0, 0, 1:4] - cforce[0, 0] * dt   # contact's alone
     assert change[2] == pytest.approx(-1.5)
-    assert -change[0] == pytest.approx(mu * (1.5 if whole_step else 0.5))
+    assert -change[0] == pytest.approx(mu * (0.5 + start_share))
 
 
 def history(out):

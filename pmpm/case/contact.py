@@ -128,9 +128,9 @@ CONTACT = {
                      "across a closed gap; docs/validation/two_bars.md). With it, a node "
                      "inside one body that the other's outermost particles reach takes "
                      "the normal of the body that has a surface there, and Coulomb "
-                     "friction is limited by the node's whole normal change of the step "
-                     "(method 2's start correction included), so a sliding impact takes "
-                     "mu times its normal impulse "
+                     "friction is limited by the normal change the body's particles keep "
+                     "(under APIC method 2's start correction too), so a sliding impact "
+                     "takes mu times its normal impulse "
                      "(docs/validation/angular_momentum.md). Left out or `none`: seed "
                      "001's contact"),
     "gap": Field(choice(GAP_MEASURES, "gap measure"), "reach",

@@ -250,7 +250,7 @@ def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block, flat=0.
 
 @njit(cache=True)
 def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tiny, block,
-                whole_step_coulomb=False):
+                start_share):
     """Trial velocities of each body alone (Eqs. 11, 26); where a body approaches the
     centre of mass (Eq. 12) and is not separated from the other body (:func:`_separated`)
     the contact force of Eq. 22 (normal part Eq. 17, no-slip tangential part Eq. 21
@@ -265,12 +265,13 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
     gained 20-30 % of their energy so). Without it, Eq. 12 alone decides, as in the
     paper.
 
-    Friction is limited to mu times the normal part of this correction; with
-    ``whole_step_coulomb`` (the release rule) to mu times the node's whole normal
-    change of the step, method 2's start correction (Eq. 25, normal only) included, so
-    that a body sliding through an impact takes mu times its normal impulse (seed
-    001's limit gave 0.92 mu where the start correction carries 8 % of it:
-    docs/validation/angular_momentum.md). Writes ``slots.cnew``."""
+    Friction is limited to mu times the normal part of this correction plus
+    ``start_share[b]`` times method 2's start correction (Eq. 25, normal only): the
+    share of it that reaches body b's velocities (APIC takes the new nodal velocity, so
+    all of it; FLIP only the acceleration, so none; a FLIP/PIC blend its PIC fraction).
+    Seed 001's contact passes zeros. So a body sliding through an impact takes mu times
+    the normal impulse it receives (docs/validation/angular_momentum.md). Writes
+    ``slots.cnew``."""
     acc, tangent = np.empty(3), np.empty(3)
     faces = block.faces
     cnodal, slot_nodes, cvel, cnorm, cforce, cnew = slots
@@ -295,10 +296,10 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
                     for d in range(3):
                         before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
                 if approach > 0.0 and before >= 0.0:
-                    started = 0.0          # Eq. 25's normal change, per unit time
-                    if whole_step_coulomb:
-                        for d in range(3):
-                            started += (cvel[s, b, d] - cnodal[s, b, 1 + d] / m) * cnorm[s, b, d]
+                    started = 0.0          # Eq. 25's normal change the body keeps
+                    for d in range(3):
+                        started += (cvel[s, b, d] - cnodal[s, b, 1 + d] / m) * cnorm[s, b, d]
+                    started *= start_share[b]
                     _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
                                               friction[b, other], dt, tangent, started / dt)
                     constrain_coded(acc, faces[n])

@@ -114,13 +114,26 @@ def _master(rule, a, b, names, stiffness):
     return names.index(rule)
 
 
+def start_shares(config):
+    """Per body, the share of method 2's start correction (Eq. 25) that reaches its
+    velocities: 1 under APIC (the particles take the new nodal velocity), ``time.pic``
+    under FLIP (the acceleration alone, blended with that share of PIC), 0 for an FEM
+    body's nodes (they take the acceleration)."""
+    particles = 1.0 if config.time.transfer == "apic" else float(config.time.pic)
+    return [0.0 if b.method == "fem" else particles for b in config.bodies]
+
+
 class GridContact(Coupling):
     """Multi-velocity grid contact as a coupling of the step: per-body fields at the
     contact nodes of every level, the start-of-step correction of method 2 and the
     end-of-step contact forces (seed 001 Secs. 3-4)."""
 
-    def __init__(self, rules, world, bodies, m_tiny, n_levels):
+    def __init__(self, rules, world, bodies, m_tiny, n_levels, start_share):
         self.rules, self.bodies, self.m_tiny = rules, bodies, m_tiny
+        # the share of method 2's start correction that reaches each body's velocities,
+        # counted in Coulomb's limit under the release rule (kc.contact_end)
+        self.start_share = (np.asarray(start_share, np.float64) if rules.releases
+                            else np.zeros(len(bodies.names)))
         self.pairs = rules.record()
         self.fields = [ContactFields(world) for _ in range(n_levels)]
 
@@ -151,7 +164,7 @@ class GridContact(Coupling):
             f.cnew = f.slot_array("cnew", kc.CNEW, f.cnodal.shape[1], zero=False)
             kc.contact_end(f.slots(), s.gvel, s.gnew, self.pairs, self.bodies.rigid,
                            self.rules.skip_separating, dt, self.m_tiny, s.nodes,
-                           bool(self.rules.releases))
+                           self.start_share)
 
     def view(self, state):
         return self.fields[state.index].view()

@@ -7,7 +7,7 @@ from ..grid import CoarseGrid, Level, Window
 from ..kernels.shape import HALO, SHAPE_CODES
 from ..particles import Particles
 from .bodies import BodyTable, assign_loads, build_particles, fill_positions
-from .contact import SURFACE_COUPLING, ContactRules, GridContact
+from .contact import SURFACE_COUPLING, ContactRules, GridContact, start_shares
 from .couplings import TiedInterface
 from .decomposition import Decomposition, slab_min_width
 from .energy import gravitational_potential, load_power
@@ -54,7 +54,8 @@ class Simulation:
                              [b.method == "fem" for b in config.bodies])
         couplings = [TiedInterface(world)] if self.windows else []
         if rules.active:
-            couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states)))
+            couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states),
+                                         start_shares(config)))
         nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
                                    grid, bodies, m_tiny)
         self.surface = None
