@@ -164,8 +164,8 @@ def test_method_2_energy_is_smooth_where_method_1_steps(rings):
 def test_with_the_release_rule_both_methods_keep_the_energy_level_in_contact(rings, method):
     """With the release rule method 1 keeps the energy nearly as level as method 2
     (seed 001's detection: +25 % while touching): no force at nodes whose surfaces are
-    apart. Measured on 1 rank: drift -1.8 % and -0.4 %, largest excursion 4.8 % and 4.4 %,
-    both separating at 3.7 ms (later than the paper's 3.4: the contact starts only when
+    apart. Measured on 1 rank: drift -1.8 % and +0.6 %, largest excursion 4.8 % and 3.7 %,
+    separating at 3.7 and 3.8 ms (later than the paper's 3.4: the contact starts only when
     the surfaces meet; docs/validation/contact_rules.md)."""
     hist = read_history(rings[f"{method}-release"])
     touching = energy_steps(until_separation(hist, ("left", "right")))
