@@ -34,8 +34,10 @@ def pmpm(args, ranks=1, cwd=None, timeout=60):
                           cwd=cwd or ROOT, timeout=timeout)
 
 
-def run_ok(args, ranks=1, cwd=None):
-    done = pmpm(args, ranks, cwd)
+def run_ok(args, ranks=1, cwd=None, timeout=300):
+    """A run that must succeed. Its first run on a fresh clone compiles the kernels it
+    needs (about a minute on a busy 2-core machine), so the hang guard is longer."""
+    done = pmpm(args, ranks, cwd, timeout)
     assert done.returncode == 0, f"pmpm {args} on {ranks} ranks failed:\n{done.stderr}"
     return done
 
