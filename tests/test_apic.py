@@ -277,7 +277,7 @@ def test_grid_contact_friction_takes_mu_times_the_normal_impulse(plate_impacts, 
     """Under the release rule without its robust normals a node just inside the plate
     pushed along its round-off gradient (1.15 mu at 0.5 mm cells, 1.87 mu on a rigid
     plate), and Coulomb's limit left out method 2's start correction (0.92 mu). Measured
-    at 1 mm: 0.987, 0.999 and 0.969 mu (rigid); at 0.5 mm: 1.01 mu with the spin 1.00 of
+    at 1 mm: 0.987, 0.999 and 0.969 mu (rigid); at 0.5 mm: 1.02 mu with the spin 1.02 of
     R |J_t| (docs/validation/angular_momentum.md)."""
     impact = plate_impacts[rule]
     print(rule, "J_t / J_n:", impact["ratio"], "spin kept:", impact["spin_kept"])
