@@ -269,7 +269,17 @@ def plate_impacts(tmp_path_factory):
         run_ok([PLATE_IMPACT, "--out", out, "--quiet"]
                + [x for s in sets for x in ("--set", s)])
         found[name] = oblique_impact(out, 1.0, RADIUS)
+        found[name]["out"] = out
     return found
+
+
+def test_release_rule_friction_on_two_ranks_equals_one(tmp_path, plate_impacts):
+    """The release rule's normals and Coulomb limit over MPI (slabs along x, the
+    direction of sliding) give the 1-rank answer."""
+    sets = PLATE_RULES["release"]
+    run_ok([PLATE_IMPACT, "--out", tmp_path, "--quiet"]
+           + [x for s in sets for x in ("--set", s)], ranks=2)
+    assert_same_state(frame(plate_impacts["release"]["out"]), frame(tmp_path), 1e-10)
 
 
 @pytest.mark.parametrize("rule", list(PLATE_RULES))
