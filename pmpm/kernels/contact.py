@@ -297,9 +297,15 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
                         before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
                 if approach > 0.0 and before >= 0.0:
                     started = 0.0          # Eq. 25's normal change the body keeps
-                    for d in range(3):
-                        started += (cvel[s, b, d] - cnodal[s, b, 1 + d] / m) * cnorm[s, b, d]
-                    started *= start_share[b]
+                    if start_share[b] > 0.0:
+                        # against the body's own velocity within the node's faces, so
+                        # a fixed or slip face's share is not counted as contact
+                        for d in range(3):
+                            tangent[d] = cnodal[s, b, 1 + d] / m
+                        constrain_coded(tangent, faces[n])
+                        for d in range(3):
+                            started += (cvel[s, b, d] - tangent[d]) * cnorm[s, b, d]
+                        started *= start_share[b]
                     _add_contact_acceleration(cvel[s, b], acc, cnorm[s, b], gnew[n],
                                               friction[b, other], dt, tangent, started / dt)
                     constrain_coded(acc, faces[n])
