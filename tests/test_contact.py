@@ -22,7 +22,7 @@ NO_CHECK = np.full((2, 2), np.inf)              # no separation check (seed 001 
 
 def node_block(shape, lo, strides, n_cells, bc):
     faces = np.zeros(int(np.prod(shape)), np.uint16)
-    fill_face_codes(shape, lo, strides, n_cells, bc, faces)
+    fill_face_codes(shape, lo, strides, n_cells, bc, np.zeros(6), faces)
     return NodeBlock(shape, lo, strides, n_cells, bc, faces, np.zeros(6))
 
 

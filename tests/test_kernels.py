@@ -92,7 +92,7 @@ def test_fixed_and_slip_faces_constrain_nodal_velocity():
     gvel = np.zeros((b.n_nodes, 3))
     n_cells = np.full(3, 2, np.int64)
     faces = np.zeros(b.n_nodes, np.uint16)
-    fill_face_codes(b.shape, b.lo, b.strides, n_cells, bc, faces)
+    fill_face_codes(b.shape, b.lo, b.strides, n_cells, bc, np.zeros(6), faces)
     mpm.nodal_velocities(nodal, NodeBlock(b.shape, b.lo, b.strides, n_cells, bc, faces, np.zeros(6)), 0.0,
                          gvel)
     planes = gvel.reshape(3, 3, 3, 3)

@@ -197,3 +197,10 @@ def clear_slave_slots(ties, mask):
     slaves, count = ties.slaves, ties.count
     for t in range(count):
         mask[slaves[t]] = 0
+
+
+@njit(cache=True)
+def mark_slaves(ties, tied):
+    """tied[s] = 1 at the slaves of a TieSet."""
+    for t in range(ties.count):
+        tied[ties.slaves[t]] = 1

@@ -59,7 +59,9 @@ def warm_up(shape_code=LINEAR, apic=False):
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))
     warm_up_ties(pts, geo, block, nodal)
-    boundary.fill_face_codes(shape, lo, strides, n_cells, block.boundary, block.faces)
+    boundary.fill_face_codes(shape, lo, strides, n_cells, block.boundary, block.friction,
+                             block.faces)
+    warm_up_mirrors(block, nodal)
     return time.perf_counter() - started
 
 
@@ -103,3 +105,22 @@ def warm_up_ties(pts, geo, block, nodal):
     tied.slaves_to_masters(ties, nodal, nodal)
     tied.masters_to_slaves(ties, nodal, nodal)
     tied.clear_slave_slots(ties, mask)
+
+
+def warm_up_mirrors(block, nodal):
+    """The planes of symmetry's kernels (pmpm.kernels.boundary), on node rows and on
+    contact slots."""
+    pairs = boundary.mirror_pairs(block)
+    kinds = boundary.column_kinds(nodal.shape[1], velocity=(1,))
+    boundary.mirror_rows(nodal[:, None, :], kinds, pairs, block.boundary, None, None)
+    boundary.mirror_rows(nodal[:, None, :], kinds, pairs, block.boundary, None,
+                         np.zeros(N, np.int8))
+    slot_of = np.full(N, -1, np.int64)
+    cnodal = np.zeros((0, 1, contact.CNODAL))
+    for tied in (None, np.zeros(N, np.int8)):
+        boundary.mirror_rows(cnodal, kinds[:1].repeat(contact.CNODAL), pairs, block.boundary,
+                             slot_of, tied)
+        boundary.mirror_rows(np.zeros((0, 1, 3))[:, :, 0][:, :, None], kinds[:1], pairs,
+                             block.boundary, slot_of, tied)
+    boundary.mirror_masks(np.zeros(N, np.int64), pairs)
+    boundary.mirror_extents(np.zeros((0, 1, contact.CEXT)), pairs, slot_of)

@@ -6,12 +6,17 @@ import numpy as np
 from ..comm import sum_shared_planes
 from ..comm.exchange import max_shared_planes, or_shared_planes
 from ..kernels import contact as kc
+from ..kernels.boundary import column_kinds, mirror_extents, mirror_masks
 from ..kernels import tied
 from ..kernels.records import ContactSlots, ContactView, PairRules
 from ..materials import layout
 from .couplings import Coupling
 from .workspace import Workspace
 
+#: how the contact slots' arrays reflect across planes of symmetry (kernels.boundary)
+CNODAL_KINDS = column_kinds(kc.CNODAL, velocity=(1,), geometric=(4, 7))
+CFORCE_KINDS = column_kinds(3, velocity=(0,))
+VOLUME_KINDS = column_kinds(1)
 MAX_BODIES = 62          # one bit per body in the int64 node masks
 #: ``ContactRules.coupling`` codes of a pair of an FEM body and a particle body
 NO_COUPLING, GRID_COUPLING, SURFACE_COUPLING = 0, 1, 2
@@ -161,6 +166,7 @@ class GridContact(Coupling):
         for s in grids:
             f = self.fields[s.index]
             f.sum_on_shared_planes(s.block, f.cforce)
+            s.reflect(f.cforce, CFORCE_KINDS, f.slot_of)
             f.cnew = f.slot_array("cnew", kc.CNEW, f.cnodal.shape[1], zero=False)
             kc.contact_end(f.slots(), s.gvel, s.gnew, self.pairs, self.bodies.rigid,
                            self.rules.skip_separating, dt, self.m_tiny, s.nodes,
@@ -201,6 +207,7 @@ class ContactFields:
         for kind in kinds:
             kind.mark_bodies(state, mask)
         or_shared_planes(self.world, block.shared_planes, block.as_planes(mask))
+        mirror_masks(mask, state.mirror)
         for ties in state.slave_ties:
             tied.clear_slave_slots(ties, mask)
         self.slot_of = np.empty(block.n_nodes, np.int64)
@@ -235,11 +242,13 @@ class ContactFields:
         for kind in kinds:
             kind.scatter_contact(state, self.slot_of, self.cnodal)
         self.sum_on_shared_planes(state.block, self.cnodal)
+        state.reflect(self.cnodal, CNODAL_KINDS, self.slot_of)
         if extents and volumes:
             self.cvol = self.slot_array("cvol", 1, n_bodies)[:, :, 0]
             for kind in kinds:
                 kind.scatter_volumes(state, self.slot_of, self.cvol)
             self.sum_on_shared_planes(state.block, self.cvol)
+            state.reflect(self.cvol, VOLUME_KINDS, self.slot_of)
         elif extents:
             self.cext = self.slot_array("cext", kc.CEXT, n_bodies, zero=False)
             self.cext.fill(-np.inf)
@@ -247,6 +256,8 @@ class ContactFields:
                 kind.scatter_extents(state, self.slot_of, self.cext)
             views = {span: self.cext[a:b] for span, (a, b) in self.plane_slots.items()}
             max_shared_planes(self.world, state.block.shared_planes, views)
+            if len(state.mirror):
+                mirror_extents(self.cext, state.mirror, self.slot_of)
 
     def slots(self):
         return ContactSlots(self.cnodal, self.slot_nodes, self.cvel, self.cnorm, self.cforce,

@@ -71,6 +71,7 @@ class TiedInterface(Coupling):
             w.inner = self.find_inner_ties(w, grids.coarse)
             grids.coarse.slave_ties.append(w.inner)
             tied.slaves_to_masters(w.inner, grids.coarse.nodal, w.nodal)
+        mark_tied_slaves(grids)
 
     def occupied_nodes(self, coarse, kinds):
         b = coarse.block
@@ -132,6 +133,18 @@ class TiedInterface(Coupling):
         for w in grids.windows:
             tied.masters_to_slaves(w.ties, grids.coarse.gnew, w.gnew)
             tied.masters_to_slaves(w.inner, w.gnew, grids.coarse.gnew)
+
+
+def mark_tied_slaves(grids):
+    """Every level's ``tied`` mask of this step's slaves, which the planes of symmetry
+    leave alone (``LevelState.reflect``); only the 27-node shapes reach beyond a face."""
+    for s in grids:
+        if not len(s.mirror):
+            continue
+        s.tied = s.work.empty("tied", s.block.n_nodes, 1, np.int8)[:, 0]
+        s.tied.fill(0)
+        for ties in s.slave_ties:
+            tied.mark_slaves(ties, s.tied)
 
 
 def interior_nodes(block, face_lo, face_hi):

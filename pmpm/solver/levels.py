@@ -4,10 +4,20 @@ import numpy as np
 
 from ..comm import sum_shared_planes
 from ..kernels import mpm
-from ..kernels.boundary import fill_face_codes
+from ..kernels.boundary import fill_face_codes, mirror_pairs, mirror_rows
 from ..kernels.shape import MARKERS
 from ..kernels.records import GridGeometry, NodeBlock
 from .workspace import Workspace
+
+NO_PAIRS = np.zeros((0, 3), np.int64)
+
+
+def as_rows(array, width):
+    """``array`` (rows, width), (rows, n_bodies) with ``width`` 1, or (rows, n_bodies,
+    width) as a (rows, n_bodies, width) view."""
+    if array.ndim == 3:
+        return array
+    return array[:, None, :] if array.shape[1] == width else array[:, :, None]
 
 
 class LevelState:
@@ -25,6 +35,8 @@ class LevelState:
         self.inner = None
         #: the TieSets whose slaves are nodes of this level (set by the tied interface)
         self.slave_ties = []
+        #: 1 at this step's tied slaves of this level (set by the tied interface), or None
+        self.tied = None
         self.block = None
         self.faces = np.zeros(0, np.uint16)
 
@@ -36,9 +48,19 @@ class LevelState:
         if len(self.faces) < b.n_nodes:
             self.faces = np.empty(max(b.n_nodes, 1024) * 5 // 4, np.uint16)
         faces = self.faces[:b.n_nodes]
-        fill_face_codes(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, faces)
+        fill_face_codes(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, lv.friction, faces)
         self.nodes = NodeBlock(b.shape, b.lo, b.strides, lv.n_cells, lv.boundary, faces,
                                lv.friction)
+        #: nodes beyond a plane of symmetry and their images (kernels.boundary)
+        self.mirror = mirror_pairs(self.nodes) if lv.halo else NO_PAIRS
+
+    def reflect(self, array, kinds, slot_of=None):
+        """Reflect ``array`` (rows, c) or (rows, n_bodies, c) of this level's nodes (or
+        of the contact slots ``slot_of``) across the planes of symmetry, its columns of
+        ``kinds`` (``pmpm.kernels.boundary.column_kinds``)."""
+        if len(self.mirror):
+            mirror_rows(as_rows(array, len(kinds)), kinds, self.mirror, self.nodes.boundary,
+                        slot_of, self.tied)
 
 
 class Hierarchy:
@@ -77,6 +99,12 @@ class Hierarchy:
         for s in self.states:
             b = s.block
             sum_shared_planes(self.world, b.shared_planes, b.as_planes(getattr(s, name)))
+
+    def reflect(self, name, kinds):
+        """Reflect the nodal array ``name`` across the box faces that are planes of
+        symmetry on every level (:meth:`LevelState.reflect`)."""
+        for s in self.states:
+            s.reflect(getattr(s, name), kinds)
 
     def n_nodes(self):
         return sum(s.block.n_nodes for s in self.states)

@@ -3,6 +3,11 @@ any refined windows tied to it (seed 000 Sec. 4). The scheme (USF or MUSL) order
 phases; each phase asks every body kind for its points' part on every grid level and
 every coupling (tied interface, grid contact) for its hook."""
 from ..kernels import mpm
+from ..kernels.boundary import column_kinds
+
+#: how ``nodal`` (mass, momentum, rigid mass, rigid momentum) and ``force`` reflect
+NODAL_KINDS = column_kinds(mpm.NODAL_COMPONENTS, velocity=(1, 5))
+FORCE_KINDS = column_kinds(3, velocity=(0,))
 
 __all__ = ["Stepper"]
 
@@ -57,6 +62,7 @@ class Stepper:
         self.ask_kinds("scatter_mass_momentum")
         self.ask_couplings("after_scatter", self.grids, self.grid_kinds)
         self.grids.sum_shared("nodal")
+        self.grids.reflect("nodal", NODAL_KINDS)
         self.ask_couplings("after_mass_sum", self.grids, self.grid_kinds)
 
     def nodal_velocities(self):
@@ -95,6 +101,7 @@ class Stepper:
     def complete_forces(self):
         self.ask_couplings("after_forces", self.grids)
         self.grids.sum_shared("force")
+        self.grids.reflect("force", FORCE_KINDS)
 
     def update_stresses(self, dt):
         """MUSL: the stress update from the velocities mapped back to the grid."""
