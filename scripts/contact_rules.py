@@ -19,8 +19,8 @@ from _common import ROOT, PYTHON, ENV, write_lines
 
 OUT = os.path.join(ROOT, "results", "contact_rules")
 RULES = {
-    "paper": ["contact.separation=none"],
-    "check": ["contact.separation=0.9"],
+    "paper": ["contact.separation=none", "contact.release=none"],
+    "check": ["contact.separation=0.9", "contact.release=none"],
     "reach": ["contact.separation=none", "contact.release=0", "contact.gap=reach"],
     "volume": ["contact.separation=none", "contact.release=0", "contact.gap=volume"],
 }

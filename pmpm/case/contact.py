@@ -56,17 +56,21 @@ def read_separation(raw, path, problems):
 
 
 def read_release(raw, path, problems):
-    """Cells >= 0, or none (null): no release rule, the paper's contact."""
+    """Cells >= 0, none (null): no release rule, the paper's contact, or auto (the
+    default, :func:`resolve_contact_defaults`)."""
     if raw is None or str(raw).strip().lower() == "none":
         return None
+    if str(raw).strip().lower() == AUTO:
+        return AUTO
     return number(at_least(0))(raw, path, problems)
 
 
+AUTO = "auto"
 SEPARATION = Custom(read_separation, "number > 0, or `none`")
-RELEASE = Custom(read_release, "number >= 0, or `none`")
+RELEASE = Custom(read_release, "number >= 0, `none` or `auto`")
 NORMAL = "`average`, `stiffer`"
 COUPLINGS = ("surface", "grid")
-GAP_MEASURES = ("reach", "volume")
+GAP_MEASURES = ("reach", "volume", AUTO)
 COUPLING_DOC = ("how an FEM body and a particle body meet (seed 004): `surface` (ICFEMP, "
                 "Sec. 3): the FEM body's free element faces are master segments and the "
                 "particles (each a sphere of half its spacing) are kept out of them by a "
@@ -120,7 +124,7 @@ CONTACT = {
                         "there lie at most this many cell sizes (of the node's grid level) "
                         "apart along the normal; left out or `none`: no check, the paper's "
                         "detection (Sec. 2.2)"),
-    "release": Field(RELEASE, OMIT, "cells",
+    "release": Field(RELEASE, AUTO, "cells",
                      "the release rule (methods 1 and 2): no contact force at a node where "
                      "the two bodies' surfaces, placed half a particle spacing beyond their "
                      "outermost particles there, are more than this many cells apart along "
@@ -131,9 +135,11 @@ CONTACT = {
                      "friction is limited by the normal change the body's particles keep "
                      "(under APIC method 2's start correction too), so a sliding impact "
                      "takes mu times its normal impulse "
-                     "(docs/validation/angular_momentum.md). Left out or `none`: seed "
-                     "001's contact"),
-    "gap": Field(choice(GAP_MEASURES, "gap measure"), "reach",
+                     "(docs/validation/angular_momentum.md). `none`: seed 001's contact. "
+                     "`auto` (the default): 0 where particle bodies meet through the grid, "
+                     "seed 001's contact where an FEM body is coupled through the grid "
+                     "(docs/validation/defaults.md; the start line names the choice)"),
+    "gap": Field(choice(GAP_MEASURES, "gap measure"), AUTO,
                  doc="how the release rule measures the gap at a node: `reach`: from the "
                      "particles that reach farthest towards the other body, each widened by "
                      "half its spacing (exact for flat faces along the grid axes, so bodies "
@@ -144,7 +150,7 @@ CONTACT = {
                      "so curved contact converges: docs/validation/hertz.md; it reads a "
                      "slowly opening flat gap to about 0.002 cells, so a flat face that "
                      "parts slowly may be touched again); linear and gimp shape functions "
-                     "only"),
+                     "only; `auto` (the default): `volume`, `reach` with bspline"),
     "coupling": Field(choice(COUPLINGS, "coupling"), "surface", doc=COUPLING_DOC),
     "pairs": Field(list_of(mapping(PAIR), 0, "pair"), [],
                    doc="the pairs of bodies with their own friction, normal or separation"),
@@ -181,6 +187,49 @@ def check_contact(contact, body_names, problems):
             problems.add(join(path, "normal"),
                          f"must be average, stiffer or one of the pair's bodies "
                          f"{pair['bodies']}; got {normal!r}")
+
+
+def resolve_contact_defaults(case):
+    """Turn ``contact.release`` and ``contact.gap`` left at ``auto`` into the rule the
+    validation matrix supports (docs/validation/defaults.md): the release rule (0 cells)
+    with the volume gap, the reach gap with bspline (the volume gap reads the hat's
+    shares); seed 001's contact for a case with an FEM body coupled through the grid (the
+    release rule is not validated with FE nodes on the grid). Per-pair releases left out
+    inherit the section's. Idempotent: a resolved case validates to itself."""
+    contact, grid = case.get("contact"), case.get("grid")
+    if contact is INVALID or not isinstance(contact, dict):
+        return
+    if contact.get("release") == AUTO:
+        contact["release"] = None if grid_coupled_fem(case) or not contact.get("method") \
+            else 0.0
+    if contact.get("gap") == AUTO:
+        shape = grid.get("shape_functions") if isinstance(grid, dict) else None
+        contact["gap"] = "reach" if shape == "bspline" else "volume"
+    for pair in contact.get("pairs") or []:
+        if isinstance(pair, dict) and pair.get("release") == AUTO:
+            pair["release"] = contact["release"]
+
+
+def grid_coupled_fem(case):
+    """Whether an FEM body meets a particle body through the grid (CFEMP)."""
+    bodies = case.get("bodies")
+    contact = case["contact"]
+    if not isinstance(bodies, list) or not any(
+            isinstance(b, dict) and b.get("method") == "fem" for b in bodies):
+        return False
+    pair_couplings = [p.get("coupling") for p in contact.get("pairs") or []
+                      if isinstance(p, dict)]
+    return contact.get("coupling") == "grid" or "grid" in pair_couplings
+
+
+def describe_contact(contact):
+    """The contact rule in words, for the start line (None without grid contact)."""
+    if not contact.method:
+        return None
+    if contact.release is None:
+        return f"contact: method {contact.method}, seed 001's detection"
+    return (f"contact: method {contact.method}, release rule ({contact.release:g} cells, "
+            f"{contact.gap} gap)")
 
 
 def check_gap_measure(contact, grid, problems):

@@ -6,7 +6,7 @@ import copy
 import dataclasses
 import math
 
-from .contact import CONTACT, check_contact, check_gap_measure
+from .contact import CONTACT, check_contact, check_gap_measure, resolve_contact_defaults
 from .windows import WINDOW, check_window_bodies, check_windows
 from .bodies import BODY, check_bodies_in_grid, check_mesh_files, check_min_below_max
 from .errors import CaseError, Problems, join, unknown_name
@@ -297,6 +297,7 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
         check_mesh_files(bodies, case_dir, problems)
     check_fem_bodies(case, case_dir, check_geometry, problems)
     problems.raise_if_any()
+    resolve_contact_defaults(case)
     return case
 
 

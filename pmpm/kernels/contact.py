@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from .affine import affine_velocity_matrix
-from .boundary import constrain_coded
+from .boundary import constrain_coded, mirrors
 from .shape import point_axes
 
 CNODAL, CVEL, CNEW = 10, 3, 6
@@ -461,11 +461,17 @@ def _hat_depth(fraction):
 @njit(cache=True, inline="always")
 def node_capacity(n, block):
     """The integral of node n's hat over the grid box, in cells^3: 1 inside, 1/2 per
-    axis on which the node lies on a face of the box."""
+    axis on which the node lies on a face of the box. A node beyond a plane of symmetry
+    (``pmpm.kernels.boundary.mirrors``) holds its image's volumes, and so its capacity."""
     capacity = 1.0
     for d in range(3):
         i = block.lo[d] + (n // block.strides[d]) % block.shape[d]
-        if i <= 0 or i >= block.n_cells[d]:
+        top = block.n_cells[d]
+        if i < 0 and mirrors(block.boundary[2 * d], block.friction[2 * d]):
+            i = -i
+        elif i > top and mirrors(block.boundary[2 * d + 1], block.friction[2 * d + 1]):
+            i = 2 * top - i
+        if i <= 0 or i >= top:
             capacity *= 0.5
     return capacity
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..case.contact import describe_contact
 from ..particles import COLUMNS
 from .bodies import BodyTable, initial_field
 from .errors import SetupError
@@ -150,7 +151,9 @@ def check_size(world, config, n_particles, fastest, out, t0=0.0, first_frame=Tru
             result = (error.problems, None)
         else:
             free = free_bytes(out)
-            result = (size_problems(config, size, free), size.line(free))
+            rule = describe_contact(config.contact)
+            result = (size_problems(config, size, free),
+                      size.line(free) + (f"; {rule}" if rule else ""))
     problems, line = world.bcast(result)
     if problems:
         raise SetupError(problems)
