@@ -89,6 +89,11 @@ OUTPUT = {
                             "warn (once) when the energy balance (kinetic + internal + "
                             "gravitational, less the work of loads) has grown by more than "
                             "this fraction since the start; 0: never"),
+    "energy_fault": Field(number(at_least(0)), 1.0, "1",
+                          "stop the run as a fault (exit 1) when the energy balance has "
+                          "grown by more than this fraction since the start: numerical "
+                          "energy that large (an unstable step, contact pushing bodies "
+                          "apart) leaves no answer worth keeping; 0: never"),
 }
 DECOMPOSITION = {
     "axis": Field(choice(("auto", "x", "y", "z"), "axis"), "auto",

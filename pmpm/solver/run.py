@@ -43,7 +43,8 @@ class Runner:
         self.case = case            # the validated case dict, kept in every checkpoint
         self.progress = Progress(self.end, progress and self.output.progress and
                                  self.world.is_root)
-        self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root)
+        self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root,
+                                 fault=self.output.energy_fault)
         self.local_load_work = 0.0
         self.particle_steps = 0
         self.element_steps = 0
@@ -211,6 +212,9 @@ class Runner:
                 f"a material value, load or velocity overflows double precision")
         self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
             self.config.gravity), self.world.sum(self.local_load_work))
+        fault = self.watch.fault_line(self.sim.time)
+        if fault:
+            raise SolverError(self.fault_message(fault, dt, taken=True))
         stats = self.sim.body_stats()
         if self.history is not None:
             rows = {name: s["centroid"] + s["velocity"] for name, s in stats.items()}
