@@ -20,6 +20,8 @@ class InputError(Exception):
 def run_case(world, args):
     """Run the case of ``args`` on ``world``; returns the summary.json path."""
     config, case_text, case = load_checked_case(args.case, args.overrides)
+    if world.is_root:
+        warn_about_case(case, args.case)
     out = args.out or os.path.join("results", _stem(args.case))
     prepare_output(world, out, args.force, args.restart, case_path=args.case)
     try:
@@ -67,6 +69,14 @@ def load_checked_case(path, overrides):
     if overrides:
         text += "\n# --set " + " --set ".join(overrides) + "\n"
     return CaseConfig.from_case(case), text, case
+
+
+def warn_about_case(case, path):
+    """Rank 0: one line for each thing the case may do badly though it is valid."""
+    from .case.fem import grid_coupling_warnings
+    for line in grid_coupling_warnings(case, os.path.dirname(os.path.abspath(path))):
+        sys.stderr.write(f"pmpm: warning: {line}\n")
+    sys.stderr.flush()
 
 
 def prepare_output(world, out, force, restart, case_path=None):
