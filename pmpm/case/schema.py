@@ -197,6 +197,8 @@ def _check_grid(grid, path, problems):
 def _check_friction_faces(grid, path, problems):
     """Friction only on slip faces (a fixed face already stops the material, a free one
     does not touch it, a symmetry plane has none)."""
+    if not isinstance(grid, dict):
+        return
     friction, boundary = grid.get("friction"), grid.get("boundary")
     if not isinstance(friction, dict) or not isinstance(boundary, dict):
         return

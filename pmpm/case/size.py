@@ -92,9 +92,12 @@ def fem_estimate(body, grid, case_dir):
     particles)."""
     from .fem import MAX_ELEMENTS, element_count
     from .hexmesh import read_hexes
+    from .fields import has_invalid
     geometry = body["geometry"]
     fem = body.get("fem") if isinstance(body.get("fem"), dict) else {}
     size = fem.get("element_size", grid["cell"])
+    if has_invalid(fem) or not isinstance(size, (int, float)):
+        return 0.0, None                     # refused naming the key
     count = element_count(geometry, size)
     if count is not None and not count <= MAX_ELEMENTS:
         return 0.0, None                     # refused naming fem.element_size
