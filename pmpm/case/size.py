@@ -90,13 +90,14 @@ def fem_estimate(body, grid, case_dir):
     upper corners of its nodes or None): an FEM body is its elements, not a volume
     filled with particles (issue 27: a 400-element plate was estimated at 8e7
     particles)."""
-    from .fem import MAX_ELEMENTS, element_count
+    from .fem import FEM_GEOMETRIES, MAX_ELEMENTS, element_count
     from .hexmesh import read_hexes
     from .fields import has_invalid
     geometry = body["geometry"]
     fem = body.get("fem") if isinstance(body.get("fem"), dict) else {}
     size = fem.get("element_size", grid["cell"])
-    if has_invalid(fem) or not isinstance(size, (int, float)):
+    if has_invalid(fem) or not isinstance(size, (int, float)) or \
+            geometry["type"] not in FEM_GEOMETRIES:
         return 0.0, None                     # refused naming the key
     count = element_count(geometry, size)
     if count is not None and not count <= MAX_ELEMENTS:
