@@ -5,9 +5,9 @@ hexahedra, velocities at half steps like the grid's.
 In each step, from the positions x^k and the velocities v^(k-1/2):
 
 * ``stress_and_forces``: the element stress update and internal plus hourglass forces
-  (pmpm.fem.elements), then gravity and loads; the elements' stable rate (1 / step at cfl 1,
-  pmpm.fem.stability), as the
-  coarse-grid speed of the same Courant number (``speed``);
+  (pmpm.fem.elements), then gravity and loads; the elements' stable rate (1 / step at
+  cfl 1, pmpm.fem.stability), as the coarse-grid speed of the same Courant number
+  (``speed``);
 * ``integrate``: v^(k+1/2) = v^(k-1/2) + dt f / m, then the grid faces' conditions on the
   nodes that lie on them;
 * ``move``: x^(k+1) = x^k + dt v^(k+1/2).
