@@ -155,7 +155,7 @@ def test_defaults_filled(tmp_path):
                             "transfer": "flip", "scheme": "usf", "max_steps": 1e8}
     assert case["output"] == {"frames": 10, "history_every": 10, "checkpoint_every": 0,
                               "progress": True, "times": [], "energy_warning": 0.05,
-                              "energy_fault": 1.0}
+                              "energy_fault": 10.0}
     assert case["decomposition"] == {"axis": "auto", "rebalance_threshold": 0.2,
                                      "check_every": 50, "memory_limit_gb": None}
     assert case["loads"] == []
