@@ -1,7 +1,8 @@
 """Command line: ``mpirun -n N python -m pmpm CASE.yaml [--out DIR] [--set KEY=VALUE ...]``.
 
 Exit codes: 0 success; 2 bad input (one line per problem, naming the key, printed once);
-1 a fault during the run (every rank stops with the same message).
+1 a fault during the run (every rank stops with the same message); 3 interrupted by
+SIGTERM or SIGINT after writing a checkpoint (continue it with --restart).
 """
 import argparse
 import contextlib
@@ -41,6 +42,8 @@ def parse_args_once(comm, argv):
 def main(argv=None):
     from .comm import world
     from .app import run_case, InputError
+    from .solver.interrupt import INTERRUPTED, RunInterrupted, catch_signals
+    catch_signals()
     comm = world()
     args, status = parse_args_once(comm, sys.argv[1:] if argv is None else argv)
     if args is None:
@@ -56,6 +59,11 @@ def main(argv=None):
         if comm.is_root:
             sys.stderr.write(f"pmpm: run stopped: {err}\n")
         return 1
+    except RunInterrupted as err:
+        if comm.is_root:
+            sys.stderr.write(f"pmpm: {err}\n")
+            sys.stderr.flush()
+        return INTERRUPTED
     except BaseException:
         import traceback
         traceback.print_exc()

@@ -3,7 +3,8 @@ output directory, build or restore the state, compile, run."""
 import os
 import sys
 
-from .output_dir import OUTPUT_FILES, force_problem, replace_run_files
+from .output_dir import (LOCK_NAME, acquire_lock, force_problem, release_lock,
+                         replace_run_files)
 from .solver.errors import SetupError
 
 
@@ -19,8 +20,19 @@ class InputError(Exception):
 def run_case(world, args):
     """Run the case of ``args`` on ``world``; returns the summary.json path."""
     config, case_text, case = load_checked_case(args.case, args.overrides)
+    if world.is_root:
+        warn_about_case(case, args.case)
     out = args.out or os.path.join("results", _stem(args.case))
     prepare_output(world, out, args.force, args.restart, case_path=args.case)
+    try:
+        return run_locked(world, args, out, config, case_text, case)
+    finally:
+        if world.is_root:
+            release_lock(out)
+
+
+def run_locked(world, args, out, config, case_text, case):
+    """The run proper, while rank 0 holds the lock on ``out``."""
     checkpoint = None
     if args.restart:
         checkpoint = choose_checkpoint(world, out)
@@ -59,26 +71,58 @@ def load_checked_case(path, overrides):
     return CaseConfig.from_case(case), text, case
 
 
+def warn_about_case(case, path):
+    """Rank 0: one line for each thing the case may do badly though it is valid."""
+    from .case.fem import grid_coupling_warnings
+    for line in grid_coupling_warnings(case, os.path.dirname(os.path.abspath(path))):
+        sys.stderr.write(f"pmpm: warning: {line}\n")
+    sys.stderr.flush()
+
+
 def prepare_output(world, out, force, restart, case_path=None):
-    """Refuse to overwrite results unless asked; decided on rank 0 for every rank.
+    """Lock the output directory and refuse to overwrite results unless asked; decided
+    on rank 0 for every rank. On success rank 0 holds ``out/pmpm.lock`` (release it with
+    ``output_dir.release_lock``).
 
     Collective. The first barrier makes every rank finish reading its input (the case
     file) before rank 0 may delete anything; ``--force`` deletes only a run's files."""
     world.barrier()
     problem = None
     if world.is_root:
-        problem = _check_output(out, force, restart, case_path)
+        problem = _lock_and_check_output(out, force, restart, case_path)
     problem = world.bcast(problem)
     if problem:
         raise InputError([problem])
     world.barrier()
 
 
-def _check_output(out, force, restart, case_path=None):
+def _lock_and_check_output(out, force, restart, case_path=None):
+    """Rank 0: take the lock on ``out`` (created, when absent and not a restart), then
+    check it; returns the problem line (the lock released) or None (the lock held)."""
     if os.path.exists(out) and not os.path.isdir(out):
         return f"--out: '{out}' exists and is not a directory"
+    if restart and not os.path.isdir(out):
+        return f"--restart: no checkpoint in '{out}'"
     try:
-        names = os.listdir(out) if os.path.isdir(out) else []
+        os.makedirs(out, exist_ok=True)
+    except OSError as err:
+        return f"--out: cannot prepare output directory '{out}': {err.strerror or err}"
+    problem, warning = acquire_lock(out)
+    if problem:
+        return problem
+    if warning:
+        sys.stderr.write(f"pmpm: warning: {warning}\n")
+        sys.stderr.flush()
+    problem = _check_output(out, force, restart, case_path)
+    if problem:
+        release_lock(out)
+    return problem
+
+
+def _check_output(out, force, restart, case_path=None):
+    """The problem with the locked directory ``out`` (its lock aside), or None."""
+    try:
+        names = [name for name in os.listdir(out) if name != LOCK_NAME]
     except OSError as err:
         return f"--out: cannot read output directory '{out}': {err.strerror or err}"
     if restart:
@@ -98,7 +142,6 @@ def _check_output(out, force, restart, case_path=None):
             replaced = replace_run_files(out, names)
             print(f"pmpm: --force: replacing {', '.join(replaced)} in {out}")
             sys.stdout.flush()
-        os.makedirs(out, exist_ok=True)
     except OSError as err:
         return f"--out: cannot prepare output directory '{out}': {err.strerror or err}"
     return None

@@ -59,3 +59,87 @@ def replace_run_files(out, names):
     for name in ordered:
         os.remove(os.path.join(out, name))
     return ordered
+
+
+#: The lock a run holds on its output directory for its whole life (rank 0 creates it
+#: atomically before anything is written and removes it at exit).
+LOCK_NAME = "pmpm.lock"
+
+
+def lock_path(out):
+    return os.path.join(out, LOCK_NAME)
+
+
+def _holder_text():
+    import socket
+    import time
+    return (f"pid {os.getpid()} on {socket.gethostname()} since "
+            f"{time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+
+
+def _read_holder(path):
+    """(pid, host, the holder's line) of a lock file; pid None when it cannot be read."""
+    try:
+        with open(path, encoding="utf-8") as handle:
+            line = handle.read().strip()
+        words = line.split()
+        return int(words[1]), words[3], line
+    except (OSError, ValueError, IndexError):
+        return None, None, "holder unknown"
+
+
+def _is_dead(pid, host):
+    """Whether the lock's holder is a process of this host that no longer runs."""
+    import socket
+    if pid is None or host != socket.gethostname():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:
+        return False
+    return False
+
+
+def acquire_lock(out):
+    """Create ``out/pmpm.lock`` atomically (O_EXCL). Returns (problem line or None,
+    warning line or None): a lock held by a live run (or one on another host) is a
+    problem naming it; a stale lock of a dead run on this host is named and replaced."""
+    path, warning = lock_path(out), None
+    for _ in range(2):
+        try:
+            handle = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            pid, host, holder = _read_holder(path)
+            if not _is_dead(pid, host):
+                return (f"--out: '{out}' is in use by another pmpm run ({holder}; lock "
+                        f"file {path}); wait for it to end, choose another --out, or "
+                        f"delete the lock if that run is dead"), None
+            warning = (f"--out: replacing the stale lock {path} of a run that is no "
+                       f"longer running ({holder})")
+            try:
+                os.remove(path)
+            except FileNotFoundError:
+                pass
+            except OSError as err:
+                return f"--out: cannot remove the stale lock {path}: {err.strerror}", None
+            continue
+        except OSError as err:
+            return (f"--out: cannot write in output directory '{out}': "
+                    f"{err.strerror or err}"), None
+        with os.fdopen(handle, "w", encoding="utf-8") as f:
+            f.write(_holder_text())
+        return None, warning
+    return f"--out: cannot take the lock {path} (another run keeps taking it)", None
+
+
+def release_lock(out):
+    """Remove ``out/pmpm.lock`` when this process holds it."""
+    path = lock_path(out)
+    pid, _, _ = _read_holder(path)
+    if pid == os.getpid():
+        try:
+            os.remove(path)
+        except OSError:
+            pass

@@ -65,3 +65,24 @@ def test_the_work_of_a_load_is_counted(tmp_path):
       value: [5.0, 0, 0], time_function: {type: ramp, t_rise: 0.01}}"""
     watch = run_block(tmp_path, load, 0.02)
     assert abs(watch["growth"]) < 0.02 and not watch["warned"]
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_balance_grown_past_output_energy_fault_stops_the_run(tmp_path, ranks):
+    """Issue 27: a growing energy is a fault, not a warning, past output.energy_fault
+    (the hats' gain on this bar passes 20 %): exit 1, one line naming the key, on every
+    rank count."""
+    done = pmpm([BAR, "--out", tmp_path, *COARSE_BAR, "--quiet",
+                 "--set", "output.energy_fault=0.2"], ranks, timeout=300)
+    assert done.returncode == 1, done.stderr
+    stops = [line for line in pmpm_lines(done.stderr) if "run stopped" in line]
+    assert len(stops) == 1 and "output.energy_fault = 0.2" in stops[0], stops
+    assert "Traceback" not in done.stderr
+
+
+def test_the_default_energy_fault_lets_the_hats_known_gain_end(tmp_path):
+    """The default (10: the balance grown to 11 times the energy given) stops a run
+    that blows up, not the bar's +23 % (a validation figure of the hats; the two bars
+    parting reach +101 %, tests/test_contact_release.py)."""
+    done = pmpm([BAR, "--out", tmp_path, *COARSE_BAR, "--quiet"], timeout=300)
+    assert done.returncode == 0 and balance(tmp_path)["fault"] == 10.0

@@ -300,16 +300,37 @@ def test_coupling_codes_follow_the_section_and_the_pairs(tmp_path):
     tree["bodies"].append({"name": "rod", "material": "steel",
                            "geometry": {"type": "sphere", "center": [0, 0, 5],
                                         "radius": 1}})
-    tree["contact"]["pairs"] = [{"bodies": ["rod", "block"], "coupling": "surface"}]
+    tree["bodies"].append({"name": "plate", "material": "steel", "method": "fem",
+                           "geometry": {"type": "box", "min": [5, 5, 5], "max": [7, 7, 6]},
+                           "fem": {"element_size": 1.0}})
+    tree["contact"]["pairs"] = [{"bodies": ["rod", "plate"], "coupling": "surface"},
+                                {"bodies": ["ball", "plate"], "coupling": "surface"}]
     from pmpm.case import load_config
     config = load_config(write_case(tmp_path, tree))
     rules = ContactRules(config.contact, BodyTable(config),
                          [b.method == "fem" for b in config.bodies])
-    block, ball, rod = (config.bodies.index(b) for b in config.bodies
-                        if b.name in ("block", "ball", "rod"))
+    block, ball, rod, plate = (config.bodies.index(b) for b in config.bodies
+                               if b.name in ("block", "ball", "rod", "plate"))
     assert rules.coupling[block, ball] == rules.coupling[ball, block] == GRID_COUPLING
-    assert rules.coupling[block, rod] == rules.coupling[rod, block] == SURFACE_COUPLING
-    assert rules.coupling[ball, rod] == 0 and rules.coupling[block, block] == 0
+    assert rules.coupling[block, rod] == GRID_COUPLING
+    assert rules.coupling[plate, rod] == rules.coupling[rod, plate] == SURFACE_COUPLING
+    assert rules.coupling[ball, rod] == 0 and rules.coupling[block, plate] == 0
+
+
+def test_an_fem_body_met_on_the_grid_and_by_surface_contact_is_refused_in_validation(
+        tmp_path):
+    """Issue 27: found during validation (before: SetupError 25 s into the set-up, after
+    meshing and filling every body)."""
+    tree = coupled_tree({"method": 2, "coupling": "grid"})
+    tree["bodies"].append({"name": "rod", "material": "steel",
+                           "geometry": {"type": "sphere", "center": [0, 0, 5],
+                                        "radius": 1}})
+    tree["contact"]["pairs"] = [{"bodies": ["rod", "block"], "coupling": "surface"}]
+    with pytest.raises(CaseError) as error:
+        load_case(write_case(tmp_path, tree))
+    assert error.value.problems == [
+        "contact.pairs[0].coupling: FEM body 'block' would meet ball on the grid and rod "
+        "by surface contact; give all its pairs one coupling"]
 
 
 def test_partition_owns_each_element_once_and_shares_nodes_symmetrically():

@@ -157,11 +157,20 @@ def test_hourglass_work_is_zero_for_uniform_deformation_and_positive_for_a_mode(
     assert np.abs(force.sum(axis=0)).max() < 1e-15   # and is self-balanced
 
 
-def test_stable_rate_is_the_wave_speed_over_volume_per_largest_face():
+def test_stable_rate_of_a_brick_bounds_its_modes_with_the_viscous_hourglass_damping():
+    """A 1 x 1 x 0.25 brick, nu = 0.25, viscous hourglass k = 0.1 (issue 27: c / L_e of
+    before, 4 c, was below its undamped omega_max / 2 = 4.03 c): omega^2 <= 8 (lambda S + 2 G beta) /
+    (rho V^2) with S = sum |b_I|^2 = 9/16 and beta = 1/2 the largest of sum b_I b_I^T;
+    damping eta = 2 k c 8 / V^(1/3); rate = (eta / 2 + sqrt(omega^2 + eta^2 / 4)) / 2."""
     xe = unit_cube() * np.array([1.0, 1.0, 0.25])
     _, mat, _, rate, _ = run_element(xe, np.zeros((8, 3)), dt=0.0)
+    g, lam = E / 2.5, E / 1.5 - 2 * E / 7.5
     c = np.sqrt((E / 1.5 + 4 * E / 7.5) / RHO)        # K + 4G/3 with nu = 0.25
-    assert rate == pytest.approx(c / 0.25, rel=1e-12)
+    volume = 0.25
+    omega2 = 8 * (lam * 9 / 16 + 2 * g / 2) / (RHO * volume ** 2)
+    eta = 2 * 0.1 * c * 8 / volume ** (1 / 3)
+    assert rate == pytest.approx(0.5 * (0.5 * eta + np.sqrt(omega2 + 0.25 * eta ** 2)),
+                                 rel=1e-12)
 
 
 def test_inverted_element_is_a_fault_and_lumped_mass_sums_to_rho_v():

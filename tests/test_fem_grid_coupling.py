@@ -125,7 +125,7 @@ def test_what_grid_coupling_cannot_do_yet_is_refused_naming_its_key(tmp_path, se
 
 def test_an_fem_body_on_the_grid_and_on_surface_contact_at_once_is_refused(tmp_path):
     """The grid contact cannot leave one pair out, so an FEM body meets every particle
-    body the same way; set-up says which pair to change."""
+    body the same way; validation says which pair to change and names the bodies."""
     with open(BOUNCE) as f:
         tree = yaml.safe_load(f)
     tree["bodies"].append({"name": "pebble", "material": "soft",
@@ -137,9 +137,8 @@ def test_an_fem_body_on_the_grid_and_on_surface_contact_at_once_is_refused(tmp_p
     done = pmpm([case, "--out", tmp_path / "out"])
     assert done.returncode == 2, done.stderr
     assert pmpm_lines(done.stderr) == [
-        "pmpm: error: contact.pairs[0].coupling: FEM body 'plate' meets some particle "
-        "bodies on the grid and others by surface contact; give all its pairs one "
-        "coupling"]
+        "pmpm: error: contact.pairs[0].coupling: FEM body 'plate' would meet block on the "
+        "grid and pebble by surface contact; give all its pairs one coupling"]
 
 
 # -- 1 rank against 2 (pytest-mpi) ---------------------------------------------------------

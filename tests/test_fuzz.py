@@ -170,3 +170,126 @@ def test_hostile_values_found_by_the_fuzzer_are_refused(setting, start):
         load_checked_case(os.path.join(ROOT, "runs", "taylor_bar.yaml"), [setting])
     assert any(line.startswith(start) for line in error.value.problems), \
         error.value.problems
+
+
+# -- FEM bodies and the meshes they read (issue 27) --------------------------------------
+FEM_CASES = [p for p in CASES if "method: fem" in open(p, encoding="utf-8").read()]
+#: a case of an FEM body read from MESH and a particle block meeting it by surface contact
+MESH_CASE = {
+    "grid": {"min": [-2, -2, -2], "max": [5, 4, 5], "cell": 1.0},
+    "materials": {"steel": {"model": "elastic", "density": 7.8e-3, "E": 2e5, "nu": 0.3}},
+    "bodies": [{"name": "part", "material": "steel", "method": "fem",
+                "geometry": {"type": "mesh", "file": "MESH"}},
+               {"name": "block", "material": "steel",
+                "geometry": {"type": "box", "min": [0, 0, 2.5], "max": [2, 2, 3.5]},
+                "velocity": [0, 0, -10]}],
+    "contact": {"coupling": "surface"},
+    "time": {"end": 0.001},
+    "output": {"frames": 1}}
+MESH_FORMATS = ("vtu", "msh", "inp")
+BAD_COORDINATES = (math.nan, math.inf, -math.inf, 1e308, -1e308, 1e6)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_an_fem_case_mutant_is_accepted_or_refused_naming_a_key(tmp_path, seed):
+    path, what = mutant(1000 + seed, tmp_path, FEM_CASES)
+    try:
+        load_checked_case(path, SHORT)
+    except InputError as error:
+        bad = [line for line in error.problems if not names_a_key(line)]
+        assert error.problems and not bad, (what, bad)
+
+
+def mesh_mutant(seed, directory):
+    """(case file reading a mutated 3 x 2 x 2 box mesh, description): node coordinates,
+    connectivity or cell blocks changed, written as VTU, Gmsh or Abaqus."""
+    from pmpm.case.hexmesh import box_mesh
+    rng = np.random.default_rng(seed)
+    points, hexes = box_mesh([0, 0, 0], [3, 2, 2], [3, 2, 2])
+    cells = [("hexahedron", hexes.copy())]
+    kind = rng.choice(["coordinate", "connectivity", "blocks"])
+    node, element = int(rng.integers(len(points))), int(rng.integers(len(hexes)))
+    if kind == "coordinate":
+        other = int(rng.integers(len(points)))
+        if rng.random() < 0.3:
+            points[node] = points[other]
+            what = f"node {node} moved onto node {other}"
+        else:
+            value = BAD_COORDINATES[rng.integers(len(BAD_COORDINATES))]
+            points[node, rng.integers(3)] = value
+            what = f"node {node} coordinate {value!r}"
+    elif kind == "connectivity":
+        choice = rng.integers(5)
+        corner = int(rng.integers(8))
+        if choice == 0:
+            index = int(rng.choice([-1, -len(points), len(points), len(points) + 7]))
+            hexes[element, corner] = index
+            what = f"hexahedron {element} corner {corner} = {index}"
+        elif choice == 1:
+            other = int(rng.integers(len(points)))
+            hexes[element, corner] = other
+            what = f"hexahedron {element} corner {corner} = node {other}"
+        elif choice == 2:
+            hexes[element, [0, 1]] = hexes[element, [1, 0]]
+            what = f"hexahedron {element}: two corners swapped"
+        elif choice == 3:
+            hexes = np.concatenate([hexes, hexes[element:element + 1]])
+            what = f"hexahedron {element} repeated"
+        else:
+            hexes = hexes[:0]
+            what = "no hexahedra"
+        cells = [("hexahedron", hexes)]
+    else:
+        choice = rng.integers(3)
+        if choice == 0:
+            cells = [("hexahedron", np.zeros((0, 8), np.int64)), ("hexahedron", hexes)]
+            what = "an empty block first"
+        elif choice == 1:
+            cells = [("hexahedron", hexes[:element]), ("hexahedron", hexes[element:])]
+            what = f"hexahedra in two blocks at {element}"
+        else:
+            cells = [("hexahedron", hexes), ("tetra", hexes[:1, :4])]
+            what = "a tetrahedron beside the hexahedra"
+    suffix = MESH_FORMATS[rng.integers(len(MESH_FORMATS))]
+    mesh = os.path.join(directory, f"mesh_{seed}.{suffix}")
+    import meshio
+    try:
+        meshio.write(mesh, meshio.Mesh(points, cells))
+    except Exception:                      # a writer that cannot hold the mutant
+        suffix = "msh"
+        mesh = os.path.join(directory, f"mesh_{seed}.msh")
+        meshio.write(mesh, meshio.Mesh(points, cells), file_format="gmsh22", binary=False)
+    text = yaml.safe_dump(MESH_CASE, sort_keys=False).replace("MESH", os.path.basename(mesh))
+    path = os.path.join(directory, f"mesh_case_{seed}.yaml")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+    return path, f"seed {seed}: {kind}: {what} ({suffix})"
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_a_mesh_mutant_is_accepted_or_refused_naming_a_key(tmp_path, seed):
+    """Never a traceback: before issue 27 an index past the nodes raised IndexError, an
+    Abaqus file's empty block too, and a negative index passed as the last node."""
+    path, what = mesh_mutant(seed, tmp_path)
+    try:
+        load_checked_case(path, SHORT)
+    except InputError as error:
+        bad = [line for line in error.problems if not names_a_key(line)]
+        assert error.problems and not bad, (what, bad)
+        assert all(line.startswith(("bodies[0]", "bodies[1].geometry", "contact"))
+                   for line in error.problems), (what, error.problems)
+        return
+    assert "corner" not in what or "= node" in what or "swapped" in what, (
+        f"{what}: a node index past the mesh was accepted")
+    assert "repeated" not in what and "coordinate" not in what and "onto" not in what, (
+        f"{what}: accepted")
+
+
+@pytest.mark.parametrize("ranks, seeds", [(1, (5, 6)), (2, (7, 8))])
+def test_mesh_mutants_on_the_command_line(tmp_path, ranks, seeds):
+    for seed in seeds:
+        path, what = mesh_mutant(seed, tmp_path)
+        sets = [x for s in SHORT for x in ("--set", s)]
+        done = pmpm([path, "--out", tmp_path / f"out{seed}", "--quiet", *sets], ranks,
+                    timeout=120)
+        check_cli(done, what)

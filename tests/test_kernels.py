@@ -168,3 +168,17 @@ def test_cached_loop_that_inlines_materials_is_dropped_when_they_change(tmp_path
     assert stale.exists()
     (tmp_path / "materials.sha1").write_text("0" * 40)
     assert refresh_inlined_caches(str(tmp_path)) and not stale.exists()
+
+
+def test_cached_fem_element_loop_is_dropped_when_its_stable_step_changes(tmp_path):
+    """Issue 27: element_forces inlines pmpm/fem/stability.py (and the hexahedron and the
+    materials); Numba keys its cache on elements.py alone."""
+    from pmpm.kernels.cache import INLINED, refresh_inlined_caches
+    assert any(path.endswith("stability.py") for path in INLINED)
+    kernels, fem = tmp_path / "kernels", tmp_path / "fem"
+    kernels.mkdir()
+    fem.mkdir()
+    stale = fem / "elements.element_forces-60.py311.nbi"
+    stale.write_text("x")
+    (kernels / "materials.sha1").write_text("0" * 40)
+    assert refresh_inlined_caches(str(kernels), str(fem)) and not stale.exists()

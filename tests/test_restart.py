@@ -118,3 +118,59 @@ def test_restart_with_an_earlier_end_time_is_refused(tmp_path, uninterrupted):
     assert done.returncode == 2, done.stderr
     lines = pmpm_lines(done.stderr)
     assert len(lines) == 1 and lines[0].startswith("pmpm: error: time.end: 0.001 is before"), lines
+
+
+#: a run long enough (about 500 steps, a few seconds) to be signalled in its loop
+LONG = [os.path.join(os.path.dirname(BAR), "..", "..", "runs", "vibrating_bar.yaml"),
+        "--quiet", "--set", "params.periods=1.5", "--set", "output.energy_warning=0"]
+
+
+def signal_run(out, ranks, target):
+    """Start LONG into ``out`` on ``ranks``, send SIGTERM to ``target`` ("mpirun" or
+    "ranks") once it has written a few history rows; returns the CompletedProcess."""
+    import signal
+    import subprocess
+    import time
+    from clihelp import ENV, ROOT, command
+    env = dict(os.environ, **ENV, PYTHONPATH=ROOT)
+    run = subprocess.Popen(command([*LONG[:1], "--out", out, *LONG[1:]], ranks),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           env=env, cwd=ROOT)
+    history = out / "history.csv"
+    stop = time.monotonic() + 240
+    while run.poll() is None and time.monotonic() < stop and not (
+            history.exists() and len(history.read_text().splitlines()) >= 6):
+        time.sleep(0.05)
+    pids = [run.pid]
+    if target == "ranks" and ranks > 1:
+        children = subprocess.run(["ps", "-o", "pid=", "--ppid", str(run.pid)],
+                                  capture_output=True, text=True).stdout.split()
+        pids = [int(pid) for pid in children]
+    for pid in pids:
+        os.kill(pid, signal.SIGTERM)
+    stdout, stderr = run.communicate(timeout=120)
+    return subprocess.CompletedProcess(run.args, run.returncode, stdout, stderr)
+
+
+@pytest.mark.parametrize("ranks, target", [(1, "ranks"), (2, "mpirun"), (2, "ranks")])
+def test_sigterm_leaves_a_checkpoint_and_the_restart_ends_as_the_uninterrupted_run(
+        tmp_path, ranks, target):
+    """Issue 27: a scheduler's SIGTERM (to mpirun, or to each rank as srun does) makes
+    every rank finish its step, write a checkpoint and stop with one line; the ranks
+    exit 3 (mpirun, signalled itself, reports 1); --restart ends where the run that
+    was not interrupted does."""
+    full = tmp_path / "full"
+    run_ok([*LONG[:1], "--out", full, *LONG[1:]], ranks)
+    out = tmp_path / "out"
+    done = signal_run(out, ranks, target)
+    lines = pmpm_lines(done.stderr)
+    assert len(lines) == 1 and lines[0].startswith("pmpm: interrupted by SIGTERM after "
+                                                   "step "), done.stderr
+    assert done.returncode == (1 if target == "mpirun" else 3), done.stderr
+    step = int(lines[0].split("after step ")[1].split()[0])
+    assert latest_checkpoint(str(out)).endswith(f"checkpoint_{step:06d}.h5")
+    assert not (out / "summary.json").exists() and not (out / "pmpm.lock").exists()
+    assert 0 < step < read_summary(str(full))["n_steps"]
+    run_ok([*LONG[:1], "--out", out, *LONG[1:], "--restart"], ranks)
+    assert_same_state(frame(full), frame(out), 1e-12)
+    assert read_summary(str(out))["n_steps"] == read_summary(str(full))["n_steps"]

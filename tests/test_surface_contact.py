@@ -196,7 +196,9 @@ def test_a_block_thrown_at_a_free_plate_keeps_the_momentum_and_stays_out():
     run(sim, 0.03, every=watch)
     end = momentum(sim)
     scale = np.abs(start).max()
-    assert np.abs(end - start).max() < 1e-12 * scale
+    # round-off over the steps: 2.0e-12 since the element step bounds the hourglass
+    # stiffness (issue 27: more, shorter steps), 1e-12 before
+    assert np.abs(end - start).max() < 5e-12 * scale
     assert min(worst) > 0.0                      # overlap r_p - g < r_p = 0.005
     fem = sim.elements
     assert fem.v[:, 2].mean() < -0.05            # the plate took the blow

@@ -8,7 +8,7 @@ import re
 import numpy as np
 
 from .errors import join
-from .fem import FEM, METHOD_DOC, METHODS
+from .fem import FEM, METHOD_DOC, METHODS, fem_mesh_or_none
 from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, FieldNumber,
                      FieldVector, Tagged, at_least, choice, defaults_of, greater,
                      has_invalid, integer,
@@ -167,6 +167,13 @@ def check_bodies_in_grid(bodies, grid, case_dir, problems):
         if body is INVALID or has_invalid(body["geometry"], body["particles_per_cell"]):
             continue
         path = join(join("bodies", i), "geometry")
+        if body.get("method") == "fem":
+            mesh = fem_mesh_or_none(body, grid, case_dir)
+            if mesh is not None:
+                check_nodes_in_grid(mesh[0], grid, path, problems)
+                filled[i] = (mesh[0][mesh[1]].mean(axis=1),
+                             body["fem"].get("element_size", grid["cell"]))
+            continue
         try:
             points, _ = fill_geometry(body["geometry"], grid, body["particles_per_cell"],
                                       case_dir)
@@ -227,6 +234,21 @@ def check_mesh_files(bodies, case_dir, problems):
         if not os.path.isfile(os.path.join(case_dir, geometry["file"])):
             problems.add(join(join(join("bodies", i), "geometry"), "file"),
                          f"cannot read {geometry['file']!r}: no such file")
+
+
+def check_nodes_in_grid(points, grid, path, problems):
+    """An FEM body's nodes lie inside the grid box at the start (on its faces at most:
+    FE nodes are not dropped like particles, and one outside faults at step 1)."""
+    tol = 1e-9 * grid["cell"]
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    outside = [f"{'xyz'[a]} from {lo[a]:g} to {hi[a]:g}, grid {grid['min'][a]:g} to "
+               f"{grid['max'][a]:g}" for a in range(3)
+               if lo[a] < grid["min"][a] - tol or hi[a] > grid["max"][a] + tol]
+    if outside:
+        count = int(np.count_nonzero(((points < np.asarray(grid["min"]) - tol) |
+                                      (points > np.asarray(grid["max"]) + tol)).any(axis=1)))
+        problems.add(path, f"{count} nodes of the FEM body lie outside the grid box ("
+                     + "; ".join(outside) + "); nodes may lie on its faces, not beyond")
 
 
 def _check_points(points, grid, particles_per_cell, path, problems):

@@ -123,6 +123,7 @@ class OutputConfig:
     progress: bool
     times: tuple
     energy_warning: float
+    energy_fault: float
 
 
 @mirrors(DECOMPOSITION)

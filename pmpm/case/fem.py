@@ -7,14 +7,16 @@ import os
 import numpy as np
 
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Field, at_least, choice, greater, has_invalid, list_of,
+from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, greater, has_invalid, list_of,
                      mapping, number, text, valid, vector)
-from .hexmesh import (InvertedElementError, MixedMeshError, box_counts, hex_mesh,
-                      read_node_sets)
+from .hexmesh import (InvertedElementError, MeshDefectError, MixedMeshError, box_counts,
+                      hex_mesh, read_node_sets)
 from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
 HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
+#: the largest hourglass coefficient a case may give (pmpm.fem.stability)
+MAX_HOURGLASS = 0.5
 FEM_GEOMETRIES = ("box", "cylinder", "sphere", "mesh")
 AXIS_NAMES = ("x", "y", "z")
 CONSTRAINT = {
@@ -40,11 +42,15 @@ FEM = {
                        doc="Flanagan-Belytschko hourglass control of the one-point "
                            "elements: `stiffness` resists the hourglass displacement "
                            "(elastic plates, slow loading), `viscous` its rate (impact)"),
-    "hourglass_coefficient": Field(number(at_least(0)), OMIT, "1",
+    "hourglass_coefficient": Field(number(at_least(0), at_most(MAX_HOURGLASS)), OMIT, "1",
                                    "the hourglass coefficient k (left out: 0.05 for "
                                    "stiffness, 0.1 for viscous): viscous Q = k rho c "
                                    "V^(2/3)/4 q, stiffness dQ/dt = k rho c^2 (sum of b.b)/(3V) q, "
-                                   "with q the hourglass velocity rates"),
+                                   "with q the hourglass velocity rates. The element's stable "
+                                   "step includes it (at cfl 1 no element grows); at most "
+                                   "0.5: beyond about 0.25 (stiffness) the hourglass modes, "
+                                   "not the physical ones, set the step, 1.8 times shorter "
+                                   "at 0.5 on a cube"),
     "constraints": Field(list_of(mapping(CONSTRAINT), 0, "constraint"), [],
                          doc="velocity components held at zero on nodes chosen by a box "
                              "or a node set (besides the grid faces' conditions, which "
@@ -85,6 +91,7 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
             check_fem_geometry(body, case_dir, check_geometry, path, problems)
     if fem_names:
         check_coupling(case, fem_names, problems)
+        check_mixed_coupling(case, fem_names, problems)
 
 
 def complete_fem(fem, grid):
@@ -119,7 +126,7 @@ def check_fem_geometry(body, case_dir, check_geometry, path, problems):
         line = f"{key}: cannot read {geometry['file']!r}: {error}"
         if line not in problems.lines:       # the particle fill's check may have said it
             problems.add(key, line[len(key) + 2:])
-    except (InvertedElementError, MixedMeshError) as error:
+    except (InvertedElementError, MixedMeshError, MeshDefectError) as error:
         problems.add(key, str(error))
 
 
@@ -157,16 +164,40 @@ def check_node_sets(body, case_dir, path, problems):
                          unknown_name("node set", name, sets))
 
 
+def element_count(geometry, size):
+    """How many elements ``size`` cuts a box, sphere or cylinder into, counted as
+    case.hexmesh cuts them but in floating point (inf past 1e308, no OverflowError);
+    None for a mesh file."""
+    kind = geometry["type"]
+    with np.errstate(over="ignore", invalid="ignore"):
+        if kind == "box":
+            return float(np.prod(box_counts(geometry["min"], geometry["max"], size)
+                                 .astype(np.float64)))
+        if kind == "sphere":
+            return float(_across(geometry["radius"], size) ** 3)
+        if kind == "cylinder":
+            layers = max(np.rint(np.float64(geometry["length"]) / size), 1.0)
+            inner = geometry.get("inner_radius", 0.0)
+            if inner > 0:
+                radial = max(np.rint(np.float64(geometry["radius"] - inner) / size), 1.0)
+                around = max(np.rint(np.pi * np.float64(geometry["radius"] + inner) / size),
+                             8.0)
+                return float(radial * around * layers)
+            return float(_across(geometry["radius"], size) ** 2 * layers)
+    return None
+
+
+def _across(radius, size):
+    """hexmesh.across in floating point: round(diameter / size), even, at least 2."""
+    n = max(np.rint(np.float64(2.0 * radius) / size), 2.0)
+    return n + np.fmod(n, 2.0)
+
+
 def too_many_elements(body, path, problems):
     geometry, size = body["geometry"], body["fem"]["element_size"]
     kind = geometry["type"]
-    if kind == "box":
-        count = float(np.prod(box_counts(geometry["min"], geometry["max"], size)
-                              .astype(np.float64)))
-    elif kind in ("sphere", "cylinder"):
-        across = 2.0 * geometry["radius"] / size
-        count = across ** 3 if kind == "sphere" else across ** 2 * geometry["length"] / size
-    else:
+    count = element_count(geometry, size)
+    if count is None:
         return False
     if count > MAX_ELEMENTS:
         problems.add(join(join(path, "fem"), "element_size"),
@@ -200,6 +231,33 @@ def check_coupling(case, fem_names, problems):
                          f"body: a window follows particle bodies only")
 
 
+def check_mixed_coupling(case, fem_names, problems):
+    """An FEM body meets every particle body by contact.coupling unless a pair says
+    otherwise; it cannot meet some on the grid and others by surface contact (as the
+    set-up would find, after meshing and filling every body)."""
+    contact = case["contact"]
+    bodies = case["bodies"] if case["bodies"] is not INVALID else []
+    if not valid(contact, "coupling", "pairs") or not all(valid(b, "name") for b in bodies):
+        return
+    particle_names = [b["name"] for b in bodies if b["name"] not in fem_names]
+    for name in sorted(fem_names):
+        ways, key = {}, "contact.coupling"
+        for other in particle_names:
+            ways[other] = contact["coupling"]
+        for i, pair in enumerate(contact["pairs"]):
+            if isinstance(pair, dict) and valid(pair, "bodies") and name in pair["bodies"]:
+                other = [n for n in pair["bodies"] if n != name]
+                if other and other[0] in ways:
+                    ways[other[0]] = pair.get("coupling", contact["coupling"])
+                    key = join(join("contact.pairs", i), "coupling")
+        if len(set(ways.values())) > 1:
+            grid = sorted(n for n, way in ways.items() if way == "grid")
+            surface = sorted(n for n, way in ways.items() if way == "surface")
+            problems.add(key, f"FEM body '{name}' would meet {', '.join(grid)} on the grid "
+                         f"and {', '.join(surface)} by surface contact; give all its pairs "
+                         f"one coupling")
+
+
 def check_pair_coupling(pair, path, contact, fem_names, problems):
     named = [n for n in pair["bodies"] if n in fem_names]
     if len(named) == 2:
@@ -218,3 +276,69 @@ def check_pair_coupling(pair, path, contact, fem_names, problems):
         problems.add(join(path, "normal"), f"in surface coupling the FEM body "
                      f"'{named[0]}' is the master: its faces give the normal, not the "
                      f"particle body '{normal}'")
+
+
+def fem_mesh_or_none(body, grid, case_dir):
+    """(points, hexes) of a valid FEM body for the checks against the grid box and the
+    other bodies, or None where it cannot be made (check_fem_geometry says why)."""
+    geometry, fem = body["geometry"], body.get("fem")
+    if has_invalid(geometry) or not isinstance(fem, dict) or has_invalid(fem) or \
+            geometry["type"] not in FEM_GEOMETRIES:
+        return None
+    size = fem.get("element_size", grid["cell"])
+    count = element_count(geometry, size)
+    if count is not None and not count <= MAX_ELEMENTS:
+        return None
+    try:
+        return hex_mesh(geometry, size, case_dir)
+    except (MeshReadError, InvertedElementError, MixedMeshError, MeshDefectError,
+            ValueError):
+        return None
+
+
+#: elements wider than this many cells let particles leak between the nodes under grid
+#: coupling (issue 27: a symmetric bounce came back at -0.46 m/s with a sideways velocity)
+WIDE_ELEMENT = 1.5
+
+
+def grid_coupling_warnings(case, case_dir="."):
+    """Warning lines for the FEM bodies met on the grid (CFEMP) whose widest element
+    edge is more than WIDE_ELEMENT cells, naming the ratio (validated ``case``)."""
+    contact, cell = case["contact"], case["grid"]["cell"]
+    if contact["method"] == 0:
+        return []
+    lines = []
+    for i, body in enumerate(case["bodies"]):
+        if body["method"] != "fem" or "grid" not in couplings_of(case, body["name"]):
+            continue
+        points, hexes = hex_mesh(body["geometry"], body["fem"]["element_size"], case_dir)
+        widest = widest_edge(points, hexes)
+        if widest > WIDE_ELEMENT * cell:
+            lines.append(
+                f"bodies[{i}].fem.element_size: FEM body '{body['name']}' meets particles "
+                f"on the grid (CFEMP) with elements up to {widest / cell:.3g} cells wide "
+                f"({widest:g} against grid.cell {cell:g}): particles leak between the "
+                f"nodes of elements wider than about {WIDE_ELEMENT:g} cells; make them "
+                f"about a cell wide or use contact.coupling: surface")
+    return lines
+
+
+def couplings_of(case, name):
+    """The couplings by which FEM body ``name`` meets the particle bodies."""
+    contact = case["contact"]
+    others = {b["name"]: contact["coupling"] for b in case["bodies"]
+              if b["method"] != "fem"}
+    for pair in contact["pairs"]:
+        if name in pair["bodies"]:
+            other = [n for n in pair["bodies"] if n != name]
+            if other and other[0] in others:
+                others[other[0]] = pair.get("coupling", contact["coupling"])
+    return set(others.values())
+
+
+def widest_edge(points, hexes):
+    """The longest of the elements' twelve edges."""
+    edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
+                      [0, 4], [1, 5], [2, 6], [3, 7]])
+    xe = points[hexes]
+    return float(np.linalg.norm(xe[:, edges[:, 1]] - xe[:, edges[:, 0]], axis=2).max())

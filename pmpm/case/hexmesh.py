@@ -25,6 +25,11 @@ class MixedMeshError(ValueError):
     """A mesh file with volume cells other than hexahedra besides its hexahedra."""
 
 
+class MeshDefectError(ValueError):
+    """A mesh file whose hexahedra name nodes it does not have, whose nodes are not
+    finite, or that repeats a hexahedron or leaves coincident nodes unmerged."""
+
+
 #: volume cells an FEM body cannot take (surface and line cells are ignored)
 OTHER_VOLUMES = ("tetra", "wedge", "pyramid", "polyhedron")
 
@@ -123,14 +128,76 @@ def read_hexes(path, scale=1.0, translate=(0.0, 0.0, 0.0)):
     points = np.asarray(mesh.points, float)
     if points.ndim != 2 or points.shape[1] != 3:
         raise MeshReadError(f"points are not 3D (shape {points.shape})")
-    blocks = [np.asarray(b.data)[:, :8] for b in mesh.cells if b.type.startswith("hexahedron")]
+    blocks = [np.asarray(b.data) for b in mesh.cells if b.type.startswith("hexahedron")]
+    blocks = [b.reshape(len(b), -1)[:, :8] for b in blocks if len(b)]   # empty blocks left out
     if not blocks:
-        found = ", ".join(sorted({block.type for block in mesh.cells})) or "none"
-        raise MeshReadError(f"no hexahedron cells, which an FEM body needs (found: {found})")
+        found = ", ".join(f"{block.type} ({len(block.data)})" for block in mesh.cells)
+        raise MeshReadError(f"no hexahedron cells, which an FEM body needs (found: "
+                            f"{found or 'none'})")
     refuse_other_volumes(mesh.cells)
     hexes = np.concatenate(blocks).astype(np.int64)
+    check_node_indices(hexes, len(points))
     used, hexes = np.unique(hexes, return_inverse=True)
-    return points[used] * scale + np.asarray(translate, float), hexes.reshape(-1, 8)
+    check_coordinates(points, used)
+    hexes = hexes.reshape(-1, 8)
+    check_repeated_hexahedra(hexes)
+    check_merged_nodes(points[used], used)
+    return points[used] * scale + np.asarray(translate, float), hexes
+
+
+def check_node_indices(hexes, n_points):
+    """MeshDefectError naming the first hexahedron that names a node the mesh does not
+    have (a negative index would silently wrap to the last nodes)."""
+    bad = np.flatnonzero(((hexes < 0) | (hexes >= n_points)).any(axis=1))
+    if len(bad):
+        row = hexes[bad[0]]
+        node = int(row[(row < 0) | (row >= n_points)][0])
+        raise MeshDefectError(
+            f"hexahedron {int(bad[0])} (of {len(bad)} such) names node {node}, but the "
+            f"mesh's nodes are 0 to {n_points - 1}")
+
+
+def check_coordinates(points, used):
+    """MeshDefectError naming the first used node whose coordinates are not finite."""
+    finite = np.isfinite(points[used]).all(axis=1)
+    if not finite.all():
+        bad = np.flatnonzero(~finite)
+        node = int(used[bad[0]])
+        raise MeshDefectError(
+            f"node {node} (of {len(bad)} such) has coordinates that are not finite "
+            f"({', '.join(f'{v:g}' for v in points[node])})")
+
+
+def check_repeated_hexahedra(hexes):
+    """MeshDefectError when a hexahedron's nodes are another's (its mass would count
+    twice: 12.5 % extra mass from one repeat in eight)."""
+    keys = np.sort(hexes, axis=1)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    if len(first) == len(hexes):
+        return
+    repeat = np.flatnonzero(first[inverse.reshape(-1)] != np.arange(len(hexes)))
+    original = int(first[inverse.reshape(-1)[repeat[0]]])
+    raise MeshDefectError(
+        f"{len(hexes) - len(first)} hexahedra repeat another's nodes (hexahedron "
+        f"{int(repeat[0])} is hexahedron {original} again): their mass would count twice; "
+        f"remove the repeats")
+
+
+def check_merged_nodes(points, ids):
+    """MeshDefectError when distinct nodes lie at the same place (to 1e-9 of the mesh's
+    size): elements that touch there share no node, so they are not connected."""
+    size = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    keys = np.round(points / max(size, 1e-300) * 1e9)
+    _, first, counts = np.unique(keys, axis=0, return_index=True, return_counts=True)
+    if len(first) == len(points):
+        return
+    place = np.flatnonzero(counts > 1)[0]
+    same = np.flatnonzero((keys == keys[first[place]]).all(axis=1))
+    raise MeshDefectError(
+        f"{len(points) - len(first)} nodes lie at the same place as another node (nodes "
+        f"{int(ids[same[0]])} and {int(ids[same[1]])} at "
+        f"({', '.join(f'{v:g}' for v in points[same[0]])})): the elements there share no "
+        f"node and are not connected; merge the mesh's coincident nodes")
 
 
 def refuse_other_volumes(cells):

@@ -54,6 +54,8 @@ def _tet_connectivity(cells):
     blocks = []
     for block in cells:
         data = np.asarray(block.data)
+        if len(data) == 0:                   # an empty block (some readers give shape (0,))
+            continue
         if block.type.startswith("tetra"):
             blocks.append(data[:, :4])
         elif block.type.startswith("hexahedron"):

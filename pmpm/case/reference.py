@@ -159,6 +159,23 @@ grid.boundary.z-: unknown boundary condition 'fixd'; known: fixed, free, slip, s
 Unknown keys are errors (with a "did you mean" when a known key is close), so a typo
 never falls back silently to a default.
 
+## Exit codes and what each refusal means
+
+| exit | when | the line names |
+|---|---|---|
+| 0 | the run reached `time.end` | |
+| 2 | bad input, found before anything is computed: a key's value, a body outside the grid box or overlapping another, a run too large for `time.max_steps`, the memory or the disk | the key path |
+| 2 | the output directory: not empty without `--force` or `--restart`, holding what a run did not write, in use by another run (its lock `DIR/pmpm.lock` names the holder's pid, host and start), or not writable | `--out` |
+| 2 | an FEM body's mesh file: a node that is not finite, a hexahedron naming a node the file does not have (negative indices too), nodes at the same place that are not merged, a hexahedron listed twice, no hexahedra, other volume cells beside them, an inverted element | `bodies[i].geometry.file` and the node or hexahedron |
+| 2 | an FEM body: nodes outside the grid box at the start; more than 1e8 elements; an `hourglass_coefficient` above 0.5; met on the grid by some particle bodies and by surface contact by others | `bodies[i].geometry`, `bodies[i].fem.*`, `contact.*coupling` |
+| 1 | a fault during the run (NaN, failed constitutive update, non-positive density or element volume, a body lost out of the grid box, an FE node beyond a free face, an energy balance grown past `output.energy_fault`) | the step, and the point, element or node |
+| 3 | interrupted by SIGTERM or SIGINT: every rank finishes its step and a checkpoint is written; `--restart` continues it (under `mpirun`, mpirun itself reports 1 when it was signalled) | the checkpoint |
+
+Warnings (the run goes on): the energy balance grown past `output.energy_warning`; an
+FEM body met on the grid (CFEMP) with elements wider than 1.5 cells, naming the ratio
+(particles leak between its nodes); a stale lock of a run that is no longer running,
+replaced.
+
 ## Units
 
 pmpm is unit-agnostic: a case uses one consistent system. The unit column below names

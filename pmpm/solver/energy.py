@@ -27,10 +27,11 @@ class EnergyWatch:
     ----------
     threshold : float   growth (fraction) above which one warning is printed; 0: never
     speak : bool   whether this rank prints (rank 0)
+    fault : float   growth above which the run stops (:meth:`fault_line`); 0: never
     """
 
-    def __init__(self, threshold, speak, stream=None):
-        self.threshold, self.speak = threshold, speak
+    def __init__(self, threshold, speak, stream=None, fault=0.0):
+        self.threshold, self.speak, self.fault = threshold, speak, fault
         self.stream = stream or sys.stderr
         self.start = None                 # (kinetic + internal, potential) at the start
         self.supplied = 0.0
@@ -66,9 +67,20 @@ class EnergyWatch:
                 f"{CAUSES}\n")
             self.stream.flush()
 
+    def fault_line(self, time):
+        """The fault when the growth has passed ``fault`` (the same on every rank: the
+        energies are global sums), or None."""
+        if not (self.fault > 0 and self.growth > self.fault):
+            return None
+        return (f"the energy balance has grown {100 * self.growth:.4g} % since the start "
+                f"(by t = {time:.6g}), more than output.energy_fault = {self.fault:g} "
+                f"allows: the answer is numerical energy, not physics; usual causes: "
+                f"{CAUSES}; an FEM body's hourglass coefficient")
+
     def summary(self):
         return {"growth": self.growth, "largest_growth": self.largest,
                 "largest_growth_at": self.largest_at, "threshold": self.threshold,
+                "fault": self.fault,
                 "warned": self.warned}
 
     def state(self):

@@ -60,11 +60,9 @@ def initial_speed(config, filled, meshes=None):
     """Fastest initial wave plus particle speed over the bodies, times the finest
     window's ratio: the coarse-grid speed of the same Courant number (as
     Simulation.initial_speed, but from the filled positions, before any particle is
-    built); and of the FEM bodies' ``meshes``, cell c0 / L_e (L_e estimated as
-    V / largest face area with the volume of the element's centre Jacobian)."""
+    built); and of the FEM bodies' ``meshes``, cell / their elements' stable step."""
     table = BodyTable(config)
-    elements = max([element_speed(table.initial_wave_speed(b), mesh.points, mesh.hexes)
-                    * config.grid.cell
+    elements = max([element_speed(config, table, b, mesh) * config.grid.cell
                     for b, mesh in (meshes or {}).items()] + [0.0])
     fastest = 0.0
     for b, (positions, _) in enumerate(filled):
@@ -78,17 +76,21 @@ def initial_speed(config, filled, meshes=None):
     return max(fastest * max([w.ratio for w in config.grid.windows] + [1]), elements)
 
 
-def element_speed(c0, points, hexes):
-    """The largest c0 / L_e over the elements of a mesh (numpy, an estimate)."""
-    from ..case.hexmesh import centre_jacobians
-    from ..fem.hexahedron import FACES
-    if len(hexes) == 0:
+def element_speed(config, table, b, mesh):
+    """1 / the stable step at cfl 1 of the elements of FEM body ``b``'s ``mesh`` at the
+    start (pmpm.fem.stability, hourglass included)."""
+    from ..fem.elements import HOURGLASS_KINDS
+    from .fem_bodies import start_rate
+    if len(mesh.hexes) == 0:
         return 0.0
-    volume = 8.0 * centre_jacobians(points, hexes)
-    corners = points[hexes[:, FACES]]               # (m, 6, 4, 3)
-    normal = np.cross(corners[:, :, 2] - corners[:, :, 0], corners[:, :, 3] - corners[:, :, 1])
-    area = 0.5 * np.linalg.norm(normal, axis=2).max(axis=1)
-    return float(c0 * (area / volume).max())
+    nb = len(config.bodies)
+    kind, coefficient = np.zeros(nb, np.int64), np.zeros(nb)
+    fem = config.bodies[b].fem
+    kind[b] = HOURGLASS_KINDS[fem["hourglass"]]
+    coefficient[b] = fem["hourglass_coefficient"]
+    body = np.full(len(mesh.hexes), b, np.int32)
+    return start_rate(table, np.asarray(mesh.points, np.float64), mesh.hexes, body, kind,
+                      coefficient)
 
 
 def estimate(config, n_particles, fastest, t0=0.0, first_frame=True):

@@ -5,8 +5,9 @@ hexahedra, velocities at half steps like the grid's.
 In each step, from the positions x^k and the velocities v^(k-1/2):
 
 * ``stress_and_forces``: the element stress update and internal plus hourglass forces
-  (pmpm.fem.elements), then gravity and loads; the stable element rate c / L_e, as the
-  coarse-grid speed of the same Courant number (``speed``);
+  (pmpm.fem.elements), then gravity and loads; the elements' stable rate (1 / step at
+  cfl 1, pmpm.fem.stability), as the coarse-grid speed of the same Courant number
+  (``speed``);
 * ``integrate``: v^(k+1/2) = v^(k-1/2) + dt f / m, then the grid faces' conditions on the
   nodes that lie on them;
 * ``move``: x^(k+1) = x^k + dt v^(k+1/2).
@@ -34,7 +35,8 @@ from ..comm.shared_nodes import exchange_objects, sum_shared_rows
 from ..fem.elements import (FAILED_UPDATE, HOURGLASS_KINDS, NON_POSITIVE_VOLUME,
                             ElementMesh, Hourglass, advance_positions, advance_velocities,
                             element_forces, external_forces, lumped_masses)
-from ..fem.hexahedron import FACES, element_geometry, element_volumes
+from ..fem.hexahedron import FACES, element_volumes
+from ..fem.stability import mesh_rate
 from ..kernels.records import BodyMaterials
 from ..materials import layout
 from ..materials.state import MaterialState
@@ -268,7 +270,7 @@ class FemBodies:
     # -- phases -------------------------------------------------------------------------
     def stress_and_forces(self, dt):
         """Element stresses and nodal forces, summed over the ranks sharing a node, then
-        gravity and loads; ``speed`` = h c / L_e, the largest."""
+        gravity and loads; ``speed`` = h times the largest stable rate."""
         self.force[:] = 0.0
         rate, bad, why = element_forces(self.mesh(), self.state, self.materials,
                                         self.hourglass, dt, self.force)
@@ -327,15 +329,11 @@ class FemBodies:
                       f"body '{self.names[b]}': {what}")
 
     def initial_speed(self):
-        """h c0 / L_e over this rank's elements at the start (c0 the material's wave
-        speed)."""
-        b = np.empty((8, 3))
-        fastest = 0.0
-        speeds = [self.table.initial_wave_speed(i) for i in range(len(self.names))]
-        for e in range(len(self.hexes)):
-            volume, area = element_geometry(self.x[self.hexes[e]], b)
-            fastest = max(fastest, speeds[self.body[e]] * area / volume)
-        return fastest * self.h
+        """h / (the elements' stable step at cfl 1) over this rank's elements at the
+        start (:func:`pmpm.fem.stability.mesh_rate` with the materials' initial wave
+        speeds)."""
+        return self.h * start_rate(self.table, self.x, self.hexes, self.body,
+                                   self.hourglass.kind, self.hourglass.coefficient)
 
     # -- observables (shared nodes counted by their lowest sharer) ----------------------
     def energies(self):
@@ -545,3 +543,15 @@ def constrained(points, body, case_dir, key):
         for axis in item["fix"]:
             fixed[chosen, "xyz".index(axis)] = True
     return fixed
+
+
+def start_rate(table, x, hexes, body, hg_kind, hg_k):
+    """The largest stable rate (1 / step at cfl 1) of the elements ``hexes`` at rest with
+    their materials' initial densities and wave speeds (rigid bodies: none)."""
+    nb = len(table.names)
+    speeds = np.array([0.0 if table.rigid[b] else table.initial_wave_speed(b)
+                       for b in range(nb)])
+    rho0 = np.ascontiguousarray(table.params[:, layout.RHO0])
+    return mesh_rate(x, np.asarray(hexes, np.int64), np.asarray(body, np.int32), rho0,
+                     speeds, table.params, np.asarray(hg_kind, np.int64),
+                     np.asarray(hg_k, np.float64))

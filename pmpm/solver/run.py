@@ -9,6 +9,7 @@ from ..io.elements_h5 import ElementWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
 from .energy import EnergyWatch
+from .interrupt import RunInterrupted, received, signal_name
 from .memory import memory_summary
 from .progress import Progress
 
@@ -43,7 +44,8 @@ class Runner:
         self.case = case            # the validated case dict, kept in every checkpoint
         self.progress = Progress(self.end, progress and self.output.progress and
                                  self.world.is_root)
-        self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root)
+        self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root,
+                                 fault=self.output.energy_fault)
         self.local_load_work = 0.0
         self.particle_steps = 0
         self.element_steps = 0
@@ -83,7 +85,7 @@ class Runner:
         self.open_outputs()
         try:
             self.loop()
-        except SolverError:
+        except (SolverError, RunInterrupted):
             self.close_outputs()  # collective: every rank raised the same error
             raise
 
@@ -97,7 +99,22 @@ class Runner:
             dt = self.next_dt()
             self.advance(dt)
             self.after_step(dt)
+            self.stop_if_signalled(dt)
         self.finish(dt)
+
+    def stop_if_signalled(self, dt):
+        """After a step: when any rank has received SIGTERM or SIGINT, write a
+        checkpoint and raise RunInterrupted on every rank (one MAX reduction a step)."""
+        signum = self.world.max(received())
+        if not signum:
+            return
+        sim = self.sim
+        if self.last_checkpoint != sim.step_count:
+            self.save_checkpoint(dt)
+        last = checkpoint_path(self.out, self.last_checkpoint)
+        raise RunInterrupted(
+            f"interrupted by {signal_name(signum)} after step {sim.step_count} "
+            f"(t = {sim.time:.6g}); checkpoint written: {last}; continue with --restart")
 
     def wall(self):
         """Seconds in the run loop so far, those of the runs before a restart included."""
@@ -211,6 +228,9 @@ class Runner:
                 f"a material value, load or velocity overflows double precision")
         self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
             self.config.gravity), self.world.sum(self.local_load_work))
+        fault = self.watch.fault_line(self.sim.time)
+        if fault:
+            raise SolverError(self.fault_message(fault, dt, taken=True))
         stats = self.sim.body_stats()
         if self.history is not None:
             rows = {name: s["centroid"] + s["velocity"] for name, s in stats.items()}
