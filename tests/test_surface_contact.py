@@ -65,8 +65,9 @@ def one_pair(v_p, v_nodes, mu=0.3, m_p=2.0, masses=(1.0, 3.0, 2.0, 5.0), xi=(0.2
     phi = ksc_shapes(np.array([xi[0]]), np.array([xi[1]]))[0]
     inv_m = 1.0 / np.array(masses)
     impulse = np.empty(3)
-    acts = ksc.pair_impulse(m_p, np.array(v_p, float), np.array(v_nodes, float), inv_m,
-                            phi, np.array([0.0, 0.0, 1.0]), mu, impulse)
+    # a pair alone on its nodes: each lends it all its mass (lent 1/m: phi_J / m_J)
+    acts = ksc.pair_impulse(m_p, np.array(v_p, float), np.array(v_nodes, float),
+                            phi * inv_m, phi, np.array([0.0, 0.0, 1.0]), mu, impulse)
     return acts, impulse, phi, inv_m
 
 
@@ -196,9 +197,10 @@ def test_a_block_thrown_at_a_free_plate_keeps_the_momentum_and_stays_out():
     run(sim, 0.03, every=watch)
     end = momentum(sim)
     scale = np.abs(start).max()
-    # round-off over the steps: 2.0e-12 since the element step bounds the hourglass
-    # stiffness (issue 27: more, shorter steps), 1e-12 before
-    assert np.abs(end - start).max() < 5e-12 * scale
+    # round-off over the steps: the node impulses phi_J I sum to I only to an ulp, and
+    # the element step that bounds the hourglass stiffness (issue 27) takes more, shorter
+    # steps (measured 5.7e-12 and 2.0e-12 apart; 1e-12 before both)
+    assert np.abs(end - start).max() < 2e-11 * scale
     assert min(worst) > 0.0                      # overlap r_p - g < r_p = 0.005
     fem = sim.elements
     assert fem.v[:, 2].mean() < -0.05            # the plate took the blow
@@ -252,9 +254,14 @@ def test_a_rigid_fem_plate_takes_nothing_and_stops_the_block():
 
 def test_many_particles_on_a_light_plate_do_not_over_correct_it():
     """A plate 100 times lighter than the block (density 10): 64 particles hit its faces
-    in one step. Each node lends its pairs m_J / n_J, so the struck nodes end the step
-    no faster than the 2 m/s the block came with (measured -1.78 m/s); each pair
-    taking the whole node mass (plain Jacobi) drove them to -5.2 m/s."""
+    in one step. Each node lends its pairs shares of its mass (phi_J^k / Phi_J), so the
+    struck nodes end the step near the 2 m/s the block came with (measured -2.61 m/s:
+    a pair's contact point averages Phi_J / m_J over its nodes, so the nodes at the
+    block's edge, touched from one side, overshoot); each pair taking the whole node
+    mass (plain Jacobi) drove them to -5.2 m/s. Lending m_J / n_J (before issue 24)
+    gave -1.78 m/s, but it left a tiled face short of stopping every step, which made
+    elastic impacts lose most of their energy (docs/validation/
+    surface_contact_impact.md)."""
     sim = simulation(["materials.plate={model: elastic, density: 10.0, E: 2.0e5, nu: 0.3}",
                       "params.vx=0.0"])
     first = []
@@ -265,7 +272,7 @@ def test_many_particles_on_a_light_plate_do_not_over_correct_it():
             first.append((s.surface.last_pairs, s.elements.v[top, 2].min()))
     run(sim, 0.012, every=watch)
     pairs, fastest_node = first[0]
-    assert pairs >= 64 and -2.0 < fastest_node < -1.0
+    assert pairs >= 64 and -3.0 < fastest_node < -1.5
 
 
 def test_a_restart_during_contact_ends_where_the_uninterrupted_run_does(tmp_path):

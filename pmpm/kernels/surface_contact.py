@@ -173,16 +173,18 @@ def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_siz
 
 
 @njit(cache=True)
-def pair_impulse(m_p, v_p, v_nodes, inv_m_nodes, phi, n, mu, impulse):
+def pair_impulse(m_p, v_p, v_nodes, lent_inv_m, phi, n, mu, impulse):
     """The impulse I_c = f_c dt on the contact point C of one pair (the particle takes
     -I_c). Stick (Eqs. 42, 44, 47 with f_p = -f_c): v_p + dt f_p/m_p = v_c + dt f_c/m_c
     gives f_c dt = m_p m_c (v̄_p - v̄_c)/(m_p + m_c), v̄_c = sum phi_J v̄_J (Eq. 45),
-    1/m_c = sum phi_J^2 / m_J (Eq. 49; ``inv_m_nodes`` 0 for a rigid or held node).
+    1/m_c = sum phi_J^2 / m_J^k (Eq. 49) with m_J^k the part of node J's mass lent to
+    this pair: ``lent_inv_m`` [J] = phi_J / m_J^k (phi_J / m_J for a pair alone on its
+    nodes, which is Eq. 49; 0 for a rigid or held node).
     Split along n (Eqs. 50-51), tangent capped at mu |normal| (Eq. 52). Nothing when the
     pair separates, (v̄_p - v̄_c).n >= 0. Returns whether an impulse acts."""
     inv_mc = 0.0
     for j in range(4):
-        inv_mc += phi[j] * phi[j] * inv_m_nodes[j]
+        inv_mc += phi[j] * lent_inv_m[j]
     rel = np.empty(3)
     for d in range(3):
         vc = 0.0
@@ -211,7 +213,8 @@ def pair_impulse(m_p, v_p, v_nodes, inv_m_nodes, phi, n, mu, impulse):
 def pair_impulses(pair_p, pair_s, pair_geo, mass, v, pbody, seg_v, seg_inv_m, seg_body,
                   friction, impulses):
     """``impulses[k]`` (3): the impulse on C of pair k (particle ``pair_p[k]``, segment
-    ``pair_s[k]``); zero for a separating pair."""
+    ``pair_s[k]``); zero for a separating pair. ``seg_inv_m`` (ns, 4): per segment node
+    Phi_J / m_J, the inverse of the mass node J lends a pair per unit of its phi_J."""
     phi = np.empty(4)
     for k in range(len(pair_p)):
         p, s = pair_p[k], pair_s[k]

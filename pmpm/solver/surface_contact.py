@@ -30,12 +30,19 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
   its position (the notes' option (b)); each FE node J of the face takes phi_J I on its
   velocity and dt phi_J I/m_J on its position; rigid FEM bodies and held node components
   take nothing. Pairs are solved at once (Jacobi); so that many particles on one light
-  face do not over-correct it, a node touched by n_J pairs lends each of them m_J / n_J
-  (1/m_c = sum phi_J^2 n_J / m_J): the particles share the node's mass, and momentum
-  stays exact since every node still takes the full sum of its impulses.
-* Energy: the impulses only take kinetic energy out (the normal impulse is perfectly
-  inelastic, friction dissipates), so the energy balance (solver.energy) falls through
-  contact; the gap closure's position shifts are not counted (in the sphere runs of
+  face do not over-correct it, a node J lends pair k the share phi_J^k / Phi_J of its
+  mass, Phi_J = sum_k phi_J^k over the approaching pairs (1/m_c = sum_J phi_J^k Phi_J /
+  m_J; a pair alone on its nodes gets Eq. 49): a layer of particles that tiles a face and
+  moves alike is stopped in one step, as one merged node would be, and momentum stays
+  exact since every node still takes the full sum of its impulses. (Lending m_J / n_J to
+  each of n_J pairs, as before issue 24, left a tiled face 22 % short of stopping each
+  step, so its pairs met again every step as a train of small inelastic collisions: an
+  elastic sphere on an elastic block lost 77 % of its energy; now 0.1 %,
+  docs/validation/surface_contact_impact.md.)
+* Energy: a pair that stays in contact meets, each step, with only the relative
+  velocity its bodies' forces built up in that step, and the stick impulse joins the
+  two sides as one node would; the energy balance (solver.energy) falls only through
+  friction and the first blow of an impact; the gap closure's position shifts are not counted (in the sphere runs of
   docs/validation/sphere_rolling_fem.md the balance rises at most 2 %, while the soft
   sphere settles).
 
@@ -43,11 +50,11 @@ MPI: elements (and so segments) live on the rank of their centroid's slab, parti
 the rank of their position's slab. Each step a rank sends copies of its segments whose
 box, inflated by ``reach`` and one cell (particles move less than a cell before they
 migrate), overlaps another rank's slab to that rank (a halo; no global gather). Each pair
-is computed on the particle's owner. The pair counts of nodes go to the node's lowest
-holder and back; the node impulses go to every rank that holds the node, where they are
+is computed on the particle's owner. The phi sums Phi_J of nodes go to the node's lowest
+holder, summed there in (node id, particle id) order, and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
-and 1 rank agrees with N to round-off. The four messages of a step (halo, counts and
-their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
+and 1 rank agrees with N to round-off. The four messages of a step (halo, phi
+sums and their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
 exchange_objects), simple rather than fast; neighbour messages would do for slabs wider
 than the elements.
 """
@@ -164,11 +171,10 @@ class SurfaceContact(Coupling):
         approach = np.einsum("kd,kd->k", p.v[pair_p] - v_c, geo[:, 2:5]) < 0.0
         pair_p, pair_s, geo, phi = pair_p[approach], pair_s[approach], geo[approach], \
             phi[approach]
-        counts = self.pair_counts(segs, pair_s)
+        lent_inv_m = segs["inv_m"] * self.phi_sums(segs, pair_p, pair_s, phi)
         impulses = np.zeros((len(pair_p), 3))
         ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
-                          segs["v"], segs["inv_m"] * counts, segs["body"], self.friction,
-                          impulses)
+                          segs["v"], lent_inv_m, segs["body"], self.friction, impulses)
         self.push_particles(pair_p, geo, impulses, dt)
         self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
         self.last_pairs = len(pair_p)
@@ -205,34 +211,42 @@ class SurfaceContact(Coupling):
         pair_p = np.flatnonzero(pair_seg >= 0)
         return pair_p, pair_seg[pair_p], geo[pair_p]
 
-    def pair_counts(self, segs, pair_s):
-        """(ns, 4): per segment node, how many approaching pairs over all ranks touch that
-        node (at least 1): each rank sends its counts to the node's lowest holder, which
-        answers with the totals (integers: exact in any order)."""
+    def phi_sums(self, segs, pair_p, pair_s, phi):
+        """(ns, 4): per segment node J, Phi_J = sum of phi_J over the approaching pairs of
+        all ranks that touch it (0 where none does). Each rank sends its (node id,
+        particle id, phi) rows to the node's lowest holder, which sums them in (node id,
+        particle id) order and answers with the totals: the same sums on any rank count."""
         gid = segs["gid"][pair_s].ravel()
+        pid = np.repeat(self.points.particles.id[pair_p], 4)
+        rows = phi.ravel()
         if self.world.size == 1:
-            ids, n = np.unique(gid, return_counts=True)
+            ids, total = sums_in_order(gid, pid, rows)
         else:
-            ids, n = self.counts_over_ranks(gid, segs["holders"][pair_s][:, :, 0].ravel())
+            home = segs["holders"][pair_s][:, :, 0].ravel()
+            ids, total = self.sums_over_ranks(gid, pid, rows, home)
         every = segs["gid"].ravel()
         at = np.minimum(np.searchsorted(ids, every), max(len(ids) - 1, 0))
         found = (ids[at] == every) if len(ids) else np.zeros(len(every), bool)
-        counts = np.where(found, n[at] if len(ids) else 1, 1)
-        return counts.reshape(segs["gid"].shape).astype(np.float64)
+        sums = np.where(found, total[at] if len(ids) else 0.0, 0.0)
+        return sums.reshape(segs["gid"].shape)
 
-    def counts_over_ranks(self, gid, home):
-        """(node ids, pair counts) of the nodes in ``gid``, summed over all ranks."""
-        asks = exchange_objects(self.world, [gid[home == r] for r in range(self.world.size)])
-        ids, n = np.unique(np.concatenate(asks), return_counts=True)
+    def sums_over_ranks(self, gid, pid, rows, home):
+        """(node ids, sums of ``rows``) of the nodes in ``gid``, over all ranks, each
+        summed on the node's lowest holder in (node id, particle id) order."""
+        asks = exchange_objects(self.world, [(gid[home == r], pid[home == r], rows[home == r])
+                                             for r in range(self.world.size)])
+        ids, total = sums_in_order(np.concatenate([a[0] for a in asks]),
+                                   np.concatenate([a[1] for a in asks]),
+                                   np.concatenate([a[2] for a in asks]))
         answers = []
         for ask in asks:
-            mine = np.unique(ask)
-            answers.append((mine, n[np.searchsorted(ids, mine)]))
+            mine = np.unique(ask[0])
+            answers.append((mine, total[np.searchsorted(ids, mine)]))
         back = exchange_objects(self.world, answers)
         ids = np.concatenate([a for a, _ in back])
-        n = np.concatenate([b for _, b in back])
+        total = np.concatenate([b for _, b in back])
         order = np.argsort(ids)
-        return ids[order], n[order]
+        return ids[order], total[order]
 
     def push_nodes(self, segs, pair_p, pair_s, phi, impulses, dt):
         """The node impulses phi_J I to every holder of node J, summed there in (node id,
@@ -259,6 +273,16 @@ class SurfaceContact(Coupling):
         fem.v += total / fem.mass[:, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before)
+
+
+def sums_in_order(gid, pid, rows):
+    """(sorted unique node ids, the sums of ``rows`` per node), each sum taken in
+    particle id order (so the same rows give the same sums however they arrive)."""
+    order = np.lexsort((pid, gid))
+    ids, at = np.unique(gid[order], return_inverse=True)
+    total = np.zeros((len(ids),) + rows.shape[1:])
+    np.add.at(total, at.ravel(), rows[order])
+    return ids, total
 
 
 def approach_depth(geo):
