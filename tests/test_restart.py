@@ -120,9 +120,10 @@ def test_restart_with_an_earlier_end_time_is_refused(tmp_path, uninterrupted):
     assert len(lines) == 1 and lines[0].startswith("pmpm: error: time.end: 0.001 is before"), lines
 
 
-#: a run long enough (about 500 steps, a few seconds) to be signalled in its loop
+#: a run long enough (about 6,500 steps, some 6 s warm) to be signalled in its loop:
+#: mpirun takes about 2 s to pass a signal on, and 1.5 periods (1,200 steps) could end first
 LONG = [os.path.join(os.path.dirname(BAR), "..", "..", "runs", "vibrating_bar.yaml"),
-        "--quiet", "--set", "params.periods=1.5", "--set", "output.energy_warning=0"]
+        "--quiet", "--set", "params.periods=8", "--set", "output.energy_warning=0"]
 
 
 def signal_run(out, ranks, target):
