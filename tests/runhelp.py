@@ -25,3 +25,17 @@ def run_pmpm(case, out, ranks=1, sets=(), timeout=900, check=True, extra=()):
     if check and done.returncode != 0:
         raise AssertionError(f"{' '.join(cmd)} failed ({done.returncode}):\n{done.stderr}")
     return done
+
+
+def set_up(case, overrides=(), world=None):
+    """The Simulation of ``case`` (a path) set up in this process: one rank unless
+    ``world`` (a pmpm.comm.World) says otherwise."""
+    from pmpm.case import fill_body
+    from pmpm.case.loader import load_config
+    from pmpm.comm import World
+    from pmpm.solver.simulation import Simulation
+    config = load_config(case, list(overrides))
+    if world is None:
+        from mpi4py import MPI
+        world = World(MPI.COMM_SELF)
+    return Simulation.from_config(world, config, os.path.dirname(case), fill_body)

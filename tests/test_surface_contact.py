@@ -137,16 +137,8 @@ def test_buckets_find_every_segment_a_particle_can_touch():
 # -- coupled runs ----------------------------------------------------------------------
 def simulation(overrides=(), world=None):
     """The block-on-plate case set up in this process (one rank unless ``world``)."""
-    from pmpm.case import fill_body
-    from pmpm.case.loader import load_config
-    from pmpm.comm import World
-    from pmpm.solver.simulation import Simulation
-    path = os.path.join(HERE, "cases", "block_on_fem_plate.yaml")
-    config = load_config(path, list(overrides))
-    if world is None:
-        from mpi4py import MPI
-        world = World(MPI.COMM_SELF)
-    return Simulation.from_config(world, config, os.path.dirname(path), fill_body)
+    from runhelp import set_up
+    return set_up(os.path.join(HERE, "cases", "block_on_fem_plate.yaml"), overrides, world)
 
 
 def momentum(sim):

@@ -14,16 +14,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def simulation(overrides=(), world=None):
-    from pmpm.case import fill_body
-    from pmpm.case.loader import load_config
-    from pmpm.comm import World
-    from pmpm.solver.simulation import Simulation
-    path = os.path.join(HERE, "cases", "sphere_on_fem_block.yaml")
-    config = load_config(path, list(overrides))
-    if world is None:
-        from mpi4py import MPI
-        world = World(MPI.COMM_SELF)
-    return Simulation.from_config(world, config, os.path.dirname(path), fill_body)
+    from runhelp import set_up
+    return set_up(os.path.join(HERE, "cases", "sphere_on_fem_block.yaml"), overrides, world)
 
 
 def hertz_sphere_on_flat(radius=5.0, density=7.85e-3, young=2.0e5, poisson=0.3, speed=50.0):
