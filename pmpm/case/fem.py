@@ -7,8 +7,8 @@ import os
 import numpy as np
 
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, greater, has_invalid, list_of,
-                     mapping, number, text, valid, vector)
+from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, greater, has_invalid,
+                     integer, list_of, mapping, number, text, valid, vector)
 from .hexmesh import (InvertedElementError, MeshDefectError, MixedMeshError, box_counts,
                       hex_mesh, read_node_sets)
 from .mesh import MeshReadError
@@ -29,7 +29,28 @@ CONSTRAINT = {
     "fix": Field(list_of(choice(AXIS_NAMES, "axis"), 1, "axis"),
                  doc="the velocity components held at zero, e.g. [x, y, z] (clamped) or [z]"),
 }
+#: the most particles per direction an element converts into (issue 24)
+MAX_CONVERT_DIVISIONS = 6
+CONVERT = {
+    "eps_p": Field(number(at_least(0)), OMIT, "1",
+                   "an element converts when its plastic strain reaches this (seed 004 "
+                   "Sec. 4.2: 0.9; left out: not on plastic strain)"),
+    "volume_ratio": Field(number(greater(0), at_most(1)), OMIT, "1",
+                          "an element converts when its volume falls to this fraction of "
+                          "its initial volume (left out: only when it would invert)"),
+    "particles_per_direction": Field(integer(at_least(1), at_most(MAX_CONVERT_DIVISIONS)), 2,
+                                     "1", "an element becomes n^3 particles at the centres "
+                                          "of its n^3 sub-cells (seed 004: 2, 8 particles)"),
+}
 FEM = {
+    "convert": Field(mapping(CONVERT), OMIT,
+                     doc="element-to-particle conversion (IAFEMP, seed 004 Secs. 3-4): an "
+                         "element that reaches a criterion below, and always one that would "
+                         "invert, becomes particles of the same body that carry its material "
+                         "state and the velocity of its nodes, conserving mass and momentum; "
+                         "they meet what remains of the mesh, and every other FEM body, "
+                         "through surface contact (left out: elements never convert, and an "
+                         "inverted element stops the run)"),
     "element_size": Field(number(greater(0)), OMIT, "mm",
                           "edge of the elements a box is cut into: round(edge / "
                           "element_size) elements, at least 1, along each edge of the box; "

@@ -11,23 +11,27 @@ CELL_SCALARS = ("eps_p", "density", "e_int", "hourglass_energy")
 
 
 def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements):
-    """Write ``path`` for ``frames``: a list of (group path, time) in ``h5_name``."""
-    grids = "".join(_grid(h5_name, group, time, n_nodes, n_elements)
-                    for group, time in frames)
+    """Write ``path`` for ``frames``: a list of (group path, time, nodes, elements) in
+    ``h5_name``; a frame whose counts differ from the mesh's (``n_nodes``,
+    ``n_elements``: elements converted into particles) has its own connectivity."""
+    grids = "".join(_grid(h5_name, group, time, n, m,
+                          (n, m) != (n_nodes, n_elements))
+                    for group, time, n, m in frames)
     text = ('<?xml version="1.0" ?>\n<Xdmf Version="3.0">\n <Domain>\n'
             '  <Grid Name="elements" GridType="Collection" CollectionType="Temporal">\n'
             f"{grids}  </Grid>\n </Domain>\n</Xdmf>\n")
     atomic_write_text(path, text)
 
 
-def _grid(h5, group, time, n, m):
+def _grid(h5, group, time, n, m, own_mesh=False):
     pad = "      "
     ref = f"{h5}:{group}"
+    hexes = f"{ref}/hexes" if own_mesh else f"{h5}:/mesh/hexes"
     parts = [f'   <Grid Name={quoteattr(group.rsplit("/", 1)[-1])} GridType="Uniform">\n',
              f'    <Time Value="{float(time)!r}"/>\n',
              f'    <Topology TopologyType="Hexahedron" NumberOfElements="{m}" '
              f'NodesPerElement="8">\n',
-             _data_item(f"{h5}:/mesh/hexes", (m, 8), "<i8", pad), "    </Topology>\n",
+             _data_item(hexes, (m, 8), "<i8", pad), "    </Topology>\n",
              '    <Geometry GeometryType="XYZ">\n',
              _data_item(f"{ref}/node_x", (n, 3), "<f8", pad), "    </Geometry>\n",
              _attribute("velocity", "Vector", "Node",

@@ -134,6 +134,10 @@ def bucket_segments(seg_lo, seg_hi, lo, inv_size, dims):
     return start, items
 
 
+#: squared distances closer than this times the particle radius squared are a tie
+TIE = 1e-9
+
+
 @njit(cache=True)
 def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_size, dims,
                start, items, pair_seg, pair_geo):
@@ -142,7 +146,8 @@ def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_siz
     a sphere of half its spacing) and g > -radius[p] (its centre not further in, which
     rules out the far faces of the body), with the closest point at most radius[p] from
     the foot of the normal (so a particle beside an edge meets the side face); of those
-    the nearest, ties to the smaller segment key (the same on any rank count).
+    the nearest, ties (within TIE of radius^2) to the smaller segment key (the same on
+    any rank count).
     ``pair_seg[p]``: the segment index or -1; ``pair_geo[p]``: xi, eta, n (3), g.
     Returns the number of pairs."""
     out = np.empty(5)
@@ -161,7 +166,11 @@ def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_siz
             if g >= radius[p] or g <= -radius[p] or off > radius[p]:
                 continue
             dist = g * g + off * off
-            if dist < best or (dist == best and seg_key[s] < best_key):
+            # faces as near as each other to round-off (a particle on a symmetry plane
+            # of the mesh) tie, and the tie goes to the smaller key: the last bits of
+            # the positions, which differ between rank counts, do not pick the face
+            tie = TIE * radius[p] * radius[p]
+            if dist < best - tie or (dist <= best + tie and seg_key[s] < best_key):
                 best, best_key = dist, seg_key[s]
                 pair_seg[p] = s
                 for c in range(5):

@@ -19,8 +19,11 @@ class BodyTable:
         for i, body in enumerate(bodies):
             self.codes[i], self.params[i] = catalog.pack(config.materials[body.material])
         self.rigid = (self.codes == layout.RIGID)
-        #: the particles' uGIMP half-width in cells: half the lattice spacing
-        self.half_width = np.array([0.5 / b.particles_per_cell for b in bodies])
+        #: the particles' uGIMP half-width in cells: half the lattice spacing (an FEM
+        #: body's: half that of the particles its elements convert into)
+        self.half_width = np.array([0.5 * converted_spacing(b, config.grid.cell)
+                                    if converted_spacing(b, config.grid.cell)
+                                    else 0.5 / b.particles_per_cell for b in bodies])
 
     def initial_wave_speed(self, body_index):
         """sqrt((K + 4G/3)/rho0), or the EOS sound speed where larger (or the only one)."""
@@ -29,6 +32,15 @@ class BodyTable:
         if prm[layout.K] > 0 and np.isfinite(prm[layout.K]):
             speed = np.sqrt((prm[layout.K] + 4 * prm[layout.G] / 3) / prm[layout.RHO0])
         return max(speed, prm[layout.EOS_C0])
+
+
+def converted_spacing(body, cell):
+    """The spacing, in cells, of the particles an FEM body's elements convert into
+    (``fem.convert``: element size / particles per direction), or 0."""
+    convert = (body.fem or {}).get("convert") if body.method == "fem" else None
+    if not convert:
+        return 0.0
+    return float(body.fem["element_size"]) / convert["particles_per_direction"] / cell
 
 
 def fill_positions(config, fill_body, case_dir):

@@ -3,7 +3,8 @@
 A coupling answers the step's hooks (all optional, in step order):
 ``after_scatter`` (before the shared-plane sums of mass and momentum),
 ``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums),
-``after_integrate`` and ``after_update_points`` (the points and FE nodes have moved);
+``after_integrate`` and ``after_update_points`` (the points and FE nodes have moved),
+and ``after_elements_changed`` (elements turned into particles at the end of a step);
 and gives the point kernels its ``view`` of a level (None: the point kernels see the one
 shared field). Today: the tied interface between refined windows and the coarse grid
 (seed 000 Sec. 3), multi-velocity grid contact (seed 001, ``pmpm.solver.contact``) and
@@ -36,6 +37,10 @@ class Coupling:
 
     def after_update_points(self, dt):
         pass
+
+    def after_elements_changed(self):
+        """Elements were removed (converted into particles, pmpm.solver.conversion):
+        rebuild what depends on the mesh (collective)."""
 
     def view(self, state):
         return None

@@ -70,6 +70,7 @@ class FemBodies:
         self.take_config(config, table, world)
         whole = WholeMesh(meshes, self.body_indices, table)
         self.whole = whole
+        self.n_elements_total = len(whole.hexes)
         owner = element_owners(whole.centroids(), grid, slabs)
         part = partition_mesh(whole.hexes, len(whole.x), owner, world.rank, world.size)
         self.take_part(whole, part)
@@ -88,6 +89,7 @@ class FemBodies:
         self.load_vectors = np.zeros((1, 3))
         self.materials = BodyMaterials(table.codes, table.params, table.rigid)
         self.speed, self.fault = 0.0, None
+        self.converted_hourglass = 0.0     # of this rank's elements that became particles
         self.faces = constrained_faces(config.grid)
         self.box = (np.asarray(config.grid.min, np.float64),
                     np.asarray(config.grid.max, np.float64))
@@ -103,12 +105,16 @@ class FemBodies:
         order = np.argsort(nodes["node_id"], kind="stable")
         nodes = {k: col[order] for k, col in nodes.items()}
         fem.first_element = {b: int(np.flatnonzero(elements["body"] == b)[0])
-                             for b in fem.body_indices}
-        fem.output_mesh = (elements["hexes"], elements["body"], len(nodes["node_id"])) \
+                             for b in fem.body_indices if (elements["body"] == b).any()}
+        fem.n_elements_total = int(elements["element_id"].max()) + 1 \
+            if len(elements["element_id"]) else 0
+        # node ids are 0 .. n-1 until elements convert into particles and nodes go
+        corners = np.searchsorted(nodes["node_id"], elements["hexes"])
+        fem.output_mesh = (corners, elements["body"], len(nodes["node_id"])) \
             if world.is_root else None
-        centroids = nodes["x"][elements["hexes"]].mean(axis=1)   # node ids are 0 .. n-1
+        centroids = nodes["x"][corners].mean(axis=1)
         mine = element_owners(centroids, grid, slabs) == world.rank
-        used = np.unique(elements["hexes"][mine])
+        used = np.unique(corners[mine])
         fem.hourglass = Hourglass(*fem.hourglass_forms(config), None, None)
         fem.set_columns({k: col[mine] for k, col in elements.items()},
                         {k: col[used] for k, col in nodes.items()})
@@ -259,6 +265,41 @@ class FemBodies:
                                                  1e-6 * self.h)
         self.force = np.zeros_like(self.x)
 
+    # -- conversion (pmpm.solver.conversion) --------------------------------------------
+    def volumes(self):
+        """The elements' current volumes."""
+        out = np.empty(len(self.hexes))
+        element_volumes(self.x, self.hexes, out)
+        return out
+
+    def mass_shares(self, chosen):
+        """(element ids, node ids (m, 8), m_e / 8) of the elements ``chosen`` (bool)."""
+        return (self.element_id[chosen], self.node_id[self.hexes[chosen]],
+                self.element_mass[chosen] / 8.0)
+
+    def remove_elements(self, chosen, shares):
+        """Drop this rank's elements ``chosen`` (bool), take every rank's converted
+        elements' ``shares`` (merge_shares: rows in element id order) off the masses of
+        the nodes held here, drop the nodes no element here uses, and find the sharers
+        again (collective). The elements' hourglass energy stays counted."""
+        self.converted_hourglass += float(self.hourglass.energy[chosen].sum())
+        _, node_ids, share = shares
+        held = np.searchsorted(self.node_id, node_ids.ravel())
+        held = np.minimum(held, len(self.node_id) - 1)
+        here = self.node_id[held] == node_ids.ravel() if len(self.node_id) else \
+            np.zeros(node_ids.size, bool)
+        np.subtract.at(self.mass, held[here], np.repeat(share, 8)[here])
+        keep = ~chosen
+        elements = {k: col[keep] for k, col in self.element_columns().items()}
+        used = np.zeros(len(self.node_id), bool)
+        used[self.hexes[keep].ravel()] = True
+        nodes = {k: col[used] for k, col in self.node_columns().items()}
+        self.set_columns(elements, nodes)
+
+    def kinetic_energy_of_nodes(self):
+        m, v = self.mass[self.owned], self.v[self.owned]
+        return 0.5 * float(m @ np.einsum("ij,ij->i", v, v))
+
     # -- records ------------------------------------------------------------------------
     def mesh(self):
         return ElementMesh(self.x, self.v, self.hexes, self.body)
@@ -341,7 +382,8 @@ class FemBodies:
         m, v = self.mass[self.owned], self.v[self.owned]
         kinetic = 0.5 * float(m @ np.einsum("ij,ij->i", v, v))
         internal = float(self.element_mass @ self.state.e_int)
-        return kinetic, internal, float(self.hourglass.energy.sum())
+        hourglass = float(self.hourglass.energy.sum()) + self.converted_hourglass
+        return kinetic, internal, hourglass
 
     def body_stats(self):
         """Per FEM body name, over all ranks (collective): mass, counts, centroid,
@@ -382,11 +424,18 @@ class FemBodies:
         elements = {"stress": s.stress, "eps_p": s.eps_p, "density": s.rho,
                     "e_int": s.e_int, "centroid": self.centroids(),
                     "hourglass_energy": self.hourglass.energy}
+        elements["hexes"] = self.node_id[self.hexes]
+        elements["body"] = self.body
         node_parts = self.world.gather((self.node_id[self.owned], nodes))
         element_parts = self.world.gather((self.element_id, elements))
         if not self.world.is_root:
             return None
-        return {**in_global_order(node_parts), **in_global_order(element_parts)}
+        nodes, elements = in_global_order(node_parts), in_global_order(element_parts)
+        # connectivity into this frame's nodes (fewer than the mesh's once elements
+        # have turned into particles)
+        node_ids = np.sort(np.concatenate([p[0] for p in node_parts]))
+        elements["hexes"] = np.searchsorted(node_ids, elements["hexes"])
+        return {**nodes, **elements}
 
 
 class WholeMesh:

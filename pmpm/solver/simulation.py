@@ -6,8 +6,10 @@ from ..comm.slabs import Slabs, choose_slabs
 from ..grid import CoarseGrid, Level, Window
 from ..kernels.shape import HALO, SHAPE_CODES
 from ..particles import Particles
-from .bodies import BodyTable, assign_loads, build_particles, fill_positions
+from .bodies import (BodyTable, assign_loads, build_particles, converted_spacing,
+                     fill_positions)
 from .contact import SURFACE_COUPLING, ContactRules, GridContact, start_shares
+from .conversion import ID_STRIDE, Conversion, ConversionRules
 from .couplings import TiedInterface
 from .decomposition import Decomposition, slab_min_width
 from .energy import gravitational_potential, load_power
@@ -34,6 +36,9 @@ class Simulation:
         self.elements = elements        # solver.fem_bodies.FemBodies, or None
         n_total = max(world.sum(particles.n), 1)
         mean_mass = world.sum(float(particles.mass.sum())) / n_total
+        if mean_mass == 0 and elements:          # FEM bodies only (they may convert)
+            mean_mass = world.sum(float(elements.element_mass.sum())) / max(
+                elements.n_elements_total, 1)
         m_tiny = 1e-12 * mean_mass
         self.windows = make_windows(config.grid, grid, bodies.names)
         shape = SHAPE_CODES[config.grid.shape_functions]
@@ -48,8 +53,11 @@ class Simulation:
         self.kinds = [self.points]
         self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows,
                                            len(bodies.names))
-        self.refiner = Refiner(world, grid, self.windows, self.kinds,
-                               n_total if id_base is None else id_base)
+        self.conversion_rules = ConversionRules(config)
+        converting = elements is not None and self.conversion_rules.active
+        if id_base is None:
+            id_base = n_total + (ID_STRIDE * elements.n_elements_total if converting else 0)
+        self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base)
         rules = ContactRules(config.contact, bodies,
                              [b.method == "fem" for b in config.bodies])
         couplings = [TiedInterface(world)] if self.windows else []
@@ -59,13 +67,18 @@ class Simulation:
         nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
                                    grid, bodies, m_tiny)
         self.surface = None
-        if elements and (rules.coupling == SURFACE_COUPLING).any():
+        if elements and ((rules.coupling == SURFACE_COUPLING).any() or converting):
             self.surface = SurfaceContact(rules, world, self.points, elements, grid,
-                                          self.decomposition)
+                                          self.decomposition, self.converted_spacing())
             couplings.append(self.surface)
+        self.conversion = Conversion(world, self.conversion_rules, elements, self.points,
+                                     couplings, n_total, grid.h,
+                                     [b.particles_per_cell for b in config.bodies]) \
+            if converting else None
         self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
                                make_scheme(config.time.scheme),
-                               self.refiner, m_tiny, [elements] if elements else [], nodes)
+                               self.refiner, m_tiny, [elements] if elements else [], nodes,
+                               [self.conversion] if self.conversion else [])
         self.decomposition.update_cell_ranges(self.kinds)
         self.loads = config.loads
         self.time, self.step_count = 0.0, 0
@@ -73,6 +86,11 @@ class Simulation:
     @property
     def particles(self):
         return self.points.particles
+
+    def converted_spacing(self):
+        """Per body the spacing of the particles its elements convert into (0: none)."""
+        cell = self.config.grid.cell
+        return [cell * converted_spacing(b, cell) for b in self.config.bodies]
 
     @property
     def slabs(self):
@@ -136,6 +154,8 @@ class Simulation:
                   refined["id_base"] if refined else None, elements=elements)
         if refined:
             sim.refiner.restore(refined)
+        if sim.conversion and scalars.get("convert"):
+            sim.conversion.restore(scalars["convert"])
         sim.decomposition.send_to_owners(sim.kinds)
         sim.decomposition.update_cell_ranges(sim.kinds)
         sim.time, sim.step_count = scalars["time"], scalars["step"]
@@ -189,7 +209,8 @@ class Simulation:
                 "fastest": self.stepper.fastest, "lost": int(self.lost),
                 "lost_count": self.decomposition.lost_count.tolist(),
                 "lost_mass": self.decomposition.lost_mass.tolist(),
-                "refine": self.refiner.state()}
+                "refine": self.refiner.state(),
+                "convert": self.conversion.state() if self.conversion else None}
 
     def checkpoint_groups(self):
         """The row sets a checkpoint keeps beside the particles (FEM bodies), or None."""
@@ -230,7 +251,8 @@ class Simulation:
         element and node counts and energies)."""
         stats = body_stats(self.world, self.particles, self.bodies.names)
         if self.elements:
-            stats.update(self.elements.body_stats())
+            for name, entry in self.elements.body_stats().items():
+                stats[name] = merged_stats(entry, stats[name])
         return stats
 
     def gravitational_potential(self, gravity):
@@ -287,3 +309,21 @@ def time_factor(function, t):
     if function.type == "table":
         return float(np.interp(t, function.t, function.f))
     raise ValueError(f"unknown time function '{function.type}'")
+
+
+def merged_stats(elements, particles):
+    """One body's summary entry from its elements' and its particles' (the particles
+    its converted elements became): masses, counts and moments add, boxes join."""
+    if particles["n_particles"] == 0:
+        return elements
+    mass = elements["mass"] + particles["mass"]
+    safe = mass if mass > 0 else 1.0
+
+    def mean(key):
+        return ((elements["mass"] * np.asarray(elements[key]) + particles["mass"]
+                 * np.asarray(particles[key])) / safe).tolist()
+    merged = dict(elements, mass=mass, n_particles=particles["n_particles"],
+                  centroid=mean("centroid"), velocity=mean("velocity"))
+    merged["bbox_min"] = np.minimum(elements["bbox_min"], particles["bbox_min"]).tolist()
+    merged["bbox_max"] = np.maximum(elements["bbox_max"], particles["bbox_max"]).tolist()
+    return merged

@@ -31,12 +31,16 @@ class Stepper:
     node_kinds : list of kinds that put element nodes on the grid as points
         (solver.fem_grid.FemGridNodes, grid coupling): asked in the grid phases like
         ``kinds``, but they neither migrate nor split
+    transfers : list of objects whose ``transfer()`` moves material from one kind to
+        another once the points have moved (solver.conversion.Conversion: elements into
+        particles), before windows split particles and points migrate
     """
 
     def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny,
-                 element_kinds=(), node_kinds=()):
+                 element_kinds=(), node_kinds=(), transfers=()):
         self.decomposition, self.grids = decomposition, grids
         self.kinds, self.couplings = list(kinds), list(couplings)
+        self.transfers = list(transfers)
         self.scheme, self.refiner, self.m_tiny = scheme, refiner, m_tiny
         self.element_kinds = list(element_kinds)
         self.grid_kinds = self.kinds + list(node_kinds)
@@ -48,6 +52,8 @@ class Stepper:
         self.decomposition.assign_levels(self.kinds)
         self.decomposition.build_blocks()
         self.scheme.advance(self, dt)
+        for transfer in self.transfers:
+            transfer.transfer()
         self.refiner.move_windows_and_split()
         fault = next((k.fault for k in self.kinds + self.element_kinds if k.fault), None)
         fastest = max([self.fastest] + [k.speed for k in self.element_kinds])

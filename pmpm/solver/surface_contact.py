@@ -88,19 +88,28 @@ class SurfaceContact(Coupling):
     decomposition : solver.decomposition.Decomposition   the current slabs
     """
 
-    def __init__(self, rules, world, points, elements, grid, decomposition):
+    def __init__(self, rules, world, points, elements, grid, decomposition,
+                 converted_spacing=None):
         self.world, self.points, self.elements = world, points, elements
         self.grid, self.decomposition = grid, decomposition
-        fem = np.zeros(len(rules.coupling), bool)
+        nb = len(rules.coupling)
+        fem = np.zeros(nb, bool)
         fem[elements.body_indices] = True
         rigid = np.asarray(points.bodies.rigid, bool)
-        self.touches = (rules.coupling == SURFACE_COUPLING) & ~fem[:, None] & fem[None, :] \
-            & ~rigid[:, None]
+        surface = rules.coupling == SURFACE_COUPLING
+        self.touches = surface & ~fem[:, None] & fem[None, :] & ~rigid[:, None]
+        spacing = np.zeros(nb) if converted_spacing is None else \
+            np.asarray(converted_spacing, np.float64)
+        # an FEM body's converted particles meet what is left of its own mesh and every
+        # FEM body it meets with surface coupling (pmpm.solver.conversion)
+        converts = spacing > 0
+        self.touches |= converts[:, None] & fem[None, :] & (surface | np.eye(nb, dtype=bool))
         self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
         self.friction = np.ascontiguousarray(rules.friction, np.float64)
         p = points.particles
         slave = self.slave_bodies[p.body]
         local = float(half_spacing(p.vol0[slave]).max()) if slave.any() else 0.0
+        local = max(local, 0.5 * float(spacing.max(initial=0.0)))
         self.reach = 2.0 * world.max(local)
         self.last_pairs, self.largest_penetration = 0, 0.0
         self.refresh_faces()
@@ -129,6 +138,9 @@ class SurfaceContact(Coupling):
         self.face_gid = fem.node_id[self.face_nodes]
         self.face_body = fem.node_body[self.face_nodes[:, 0]].astype(np.int64)
         self.face_holders = self.holders[self.face_nodes]
+
+    def after_elements_changed(self):
+        self.refresh_faces()
 
     def own_segments(self):
         """This rank's segments with their nodes' current state (what does not change

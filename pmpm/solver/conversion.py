@@ -1,0 +1,190 @@
+"""Elements that turn into particles (IAFEMP, seed 004 Secs. 3-4;
+``shared/seeds/004_NOTES.md`` Sec. 1.4).
+
+At the end of a step, after the points and the FE nodes have moved, an element of a body
+with ``fem.convert`` becomes n^3 particles of the same body when its plastic strain
+reaches ``convert.eps_p``, when its volume falls to ``convert.volume_ratio`` of its
+initial volume, or whenever it would invert (volume at most 0):
+
+* the particles sit at the centres of the element's n^3 sub-cells in its natural
+  coordinates, xi = (2a + 1)/n - 1, mapped by the element's trilinear shape functions
+  N_K; each takes m_e / n^3 of the element's mass and vol0_e / n^3 of its initial volume,
+  the velocity sum_K N_K(xi_p) v_K of its nodes, and the element's whole material state
+  (stress, F, density, plastic strain, specific internal energy, temperature, bulk
+  viscosity);
+* each node K of the element gives up m_e / 8 of its lumped mass, its velocity unchanged.
+  At the symmetric sub-cell centres sum_p N_K(xi_p) = n^3 / 8, so the particles carry
+  exactly the momentum the nodes lose (to round-off), and all of the element's mass;
+* ids are ``id_base + n_max^3 * element id + k``, the same on any rank count; ``id_base``
+  is the count of the run's initial particles, and the refined windows' splitting counts
+  ids from above every id conversion can give (pmpm.solver.simulation);
+* in the same step every rank drops the converted elements' share of the masses of the
+  nodes it holds (the converted elements of all ranks, gathered only when some element
+  converts, applied in element id order so that every copy of a shared node, and 1 rank
+  against N, agree), drops the nodes no element of its own uses any more, and the
+  couplings rebuild what depends on the mesh (``after_elements_changed``: the free faces
+  of surface contact, so that the dead element's neighbours' exposed faces are segments
+  before the next step's contact).
+
+The converted element's hourglass energy stays in the energy balance (FemBodies keeps
+it); the kinetic energy the nodes lose beyond what the particles take (the velocity
+field's variation over the element) is counted in ``kinetic_loss``.
+"""
+import numpy as np
+
+from ..case.fem import MAX_CONVERT_DIVISIONS
+from ..particles.store import COLUMNS, empty_column
+from .bodies import refinement
+
+#: natural coordinates of the 8 nodes (VTK order, pmpm.fem.hexahedron)
+CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                    [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], np.float64)
+#: ids kept for each element's particles: enough for the most a case may ask
+ID_STRIDE = MAX_CONVERT_DIVISIONS ** 3
+
+
+class ConversionRules:
+    """Per body the conversion criteria: ``divisions`` (nb,) int (0: the body does not
+    convert), ``eps_p`` and ``volume_ratio`` (nb,) (inf / 0 where not set)."""
+
+    def __init__(self, config):
+        nb = len(config.bodies)
+        self.divisions = np.zeros(nb, np.int64)
+        self.eps_p = np.full(nb, np.inf)
+        self.volume_ratio = np.zeros(nb)
+        for b, body in enumerate(config.bodies):
+            convert = (body.fem or {}).get("convert") if body.method == "fem" else None
+            if not convert:
+                continue
+            self.divisions[b] = convert["particles_per_direction"]
+            self.eps_p[b] = convert.get("eps_p", np.inf)
+            self.volume_ratio[b] = convert.get("volume_ratio", 0.0)
+
+    @property
+    def active(self):
+        return bool(self.divisions.any())
+
+
+class Conversion:
+    """Turns this rank's failing elements into particles at the end of each step
+    (collective: one OR reduction per step; a gather and the couplings' rebuild only in
+    a step where some element converts).
+
+    Parameters
+    ----------
+    world : comm.World
+    rules : ConversionRules
+    elements : solver.fem_bodies.FemBodies
+    points : solver.particle_bodies.ParticleBodies   (the particles are added there)
+    couplings : list of solver.couplings.Coupling   (told ``after_elements_changed``)
+    id_base : int   the number of the run's initial particles
+    cell, particles_per_cell : the coarse cell and each body's lattice (the particles'
+        ``refine`` column, as a filled body's)
+    """
+
+    def __init__(self, world, rules, elements, points, couplings, id_base, cell,
+                 particles_per_cell):
+        self.world, self.rules, self.elements = world, rules, elements
+        self.points, self.couplings = points, couplings
+        self.id_base, self.cell = int(id_base), float(cell)
+        self.particles_per_cell = np.asarray(particles_per_cell, np.float64)
+        self.converted = 0           # elements, over all ranks, since the start
+        self.kinetic_loss = 0.0      # this rank's share
+
+    def state(self):
+        """What a checkpoint keeps (collective): the ids, the count, and the energies
+        the converted elements leave behind, summed over the ranks."""
+        hourglass, loss = self.world.sum(np.array([self.elements.converted_hourglass,
+                                                   self.kinetic_loss]))
+        return {"id_base": self.id_base, "converted": self.converted,
+                "hourglass": float(hourglass), "kinetic_loss": float(loss)}
+
+    def restore(self, state):
+        """Take a checkpoint's :meth:`state` (its energies on rank 0)."""
+        self.id_base, self.converted = int(state["id_base"]), int(state["converted"])
+        if self.world.is_root:
+            self.elements.converted_hourglass = float(state["hourglass"])
+            self.kinetic_loss = float(state["kinetic_loss"])
+
+    def transfer(self):
+        """Convert the elements that meet their body's criteria (collective)."""
+        fem = self.elements
+        chosen = self.chosen()
+        if not self.world.any(bool(chosen.any())):
+            return 0
+        born = self.particles_of(np.flatnonzero(chosen))
+        before = fem.kinetic_energy_of_nodes()
+        shares = self.world.allgather(fem.mass_shares(chosen))
+        fem.remove_elements(chosen, merge_shares(shares))
+        self.kinetic_loss += before - fem.kinetic_energy_of_nodes() - kinetic(born)
+        self.points.particles.append(born)
+        for coupling in self.couplings:
+            coupling.after_elements_changed()
+        count = int(self.world.sum(int(chosen.sum())))
+        self.converted += count
+        return count
+
+    def chosen(self):
+        """Which of this rank's elements convert now."""
+        fem = self.elements
+        if not fem.n_elements:
+            return np.zeros(0, bool)
+        b = fem.body
+        ratio = fem.volumes() / fem.vol0
+        return (self.rules.divisions[b] > 0) & (
+            (fem.state.eps_p >= self.rules.eps_p[b])
+            | (ratio <= self.rules.volume_ratio[b]) | (ratio <= 0.0))
+
+    def particles_of(self, converted):
+        """The particle columns of the elements ``converted`` (local indices)."""
+        fem = self.elements
+        parts = []
+        for n in np.unique(self.rules.divisions[fem.body[converted]]):
+            group = converted[self.rules.divisions[fem.body[converted]] == n]
+            parts.append(self.particles_of_group(group, int(n)))
+        return {name: np.concatenate([part[name] for part in parts]) for name in COLUMNS}
+
+    def particles_of_group(self, group, n):
+        fem = self.elements
+        k = n ** 3
+        shape = sub_cell_shapes(n)                                   # (k, 8)
+        x, v = fem.x[fem.hexes[group]], fem.v[fem.hexes[group]]     # (m, 8, 3)
+        columns = {name: empty_column(name, len(group) * k) for name in COLUMNS}
+        columns["x"][:] = np.einsum("kn,mnd->mkd", shape, x).reshape(-1, 3)
+        columns["v"][:] = np.einsum("kn,mnd->mkd", shape, v).reshape(-1, 3)
+        columns["mass"][:] = np.repeat(fem.element_mass[group] / k, k)
+        columns["vol0"][:] = np.repeat(fem.vol0[group] / k, k)
+        for name, column in fem.state._asdict().items():
+            columns[name][:] = np.repeat(column[group], k, axis=0)
+        body = fem.body[group]
+        columns["body"][:] = np.repeat(body, k)
+        columns["load"][:] = -1
+        columns["id"][:] = (self.id_base + ID_STRIDE * fem.element_id[group][:, None]
+                            + np.arange(k)[None, :]).ravel()
+        spacing = self.cell / self.particles_per_cell[columns["body"]]
+        columns["refine"][:] = refinement(columns["vol0"], spacing)
+        return columns
+
+
+def sub_cell_shapes(n):
+    """(n^3, 8) the trilinear shape functions at the centres of the n^3 sub-cells of the
+    natural cube [-1, 1]^3."""
+    centres = (2.0 * np.arange(n) + 1.0) / n - 1.0
+    a, b, c = np.meshgrid(centres, centres, centres, indexing="ij")
+    xi = np.stack([a.ravel(), b.ravel(), c.ravel()], axis=1)
+    return np.prod(1.0 + xi[:, None, :] * CORNERS[None, :, :], axis=2) / 8.0
+
+
+def merge_shares(parts):
+    """Every rank's (element ids, node ids (m, 8), mass shares (m,)) as one set of
+    rows, in element id order."""
+    ids = np.concatenate([p[0] for p in parts])
+    order = np.argsort(ids, kind="stable")
+    nodes = np.concatenate([p[1] for p in parts])[order]
+    shares = np.concatenate([p[2] for p in parts])[order]
+    return ids[order], nodes, shares
+
+
+def kinetic(columns):
+    v = columns["v"]
+    return 0.5 * float(columns["mass"] @ np.einsum("ij,ij->i", v, v))
