@@ -39,8 +39,9 @@ FEM = {
                           "element_size) layers, a tube polar blocks, an ogive the same "
                           "disc swept along its shank and, in layers thinning with the "
                           "radius, its nose, cut flat where the radius is 0.2 of the "
-                          "shank's (left out: grid.cell); a mesh file keeps its own "
-                          "elements"),
+                          "shank's, each section scaled out to its circle's area so the "
+                          "rod keeps its mass (left out: grid.cell); a mesh file keeps "
+                          "its own elements"),
     "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
                        doc="Flanagan-Belytschko hourglass control of the one-point "
                            "elements: `stiffness` resists the hourglass displacement "
