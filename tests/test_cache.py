@@ -142,12 +142,13 @@ def test_the_real_loops_depend_on_what_they_inline():
 
 
 def test_the_check_at_start_up_is_cheap(package):
-    """Every run pays the check when nothing changed: a walk and a stat per file (about
-    a millisecond here; the bound leaves room for a loaded machine)."""
+    """Every run pays the check when nothing changed: a walk and a stat per file (1.4 ms
+    here, the best of several tries on a loaded machine; reading and parsing the kernel
+    modules' imports after an edit takes 20 to 60 ms)."""
     cache.refresh_kernel_caches(str(package))
     spent = []
-    for _ in range(5):
+    for _ in range(7):
         started = time.perf_counter()
         cache.refresh_kernel_caches(str(package))
         spent.append(time.perf_counter() - started)
-    assert sorted(spent)[2] < 0.02
+    assert min(spent) < 0.01
