@@ -138,7 +138,7 @@ def ogive_mesh(geometry, element_size):
     nose_length - t(r_tip) of the length (2.1 mm of a 3-CRH, 12.9 mm rod) and 0.04 % of
     its volume. Every surface node lies on the ogive once scaled across the axis by
     :func:`facet_scale`, which gives each faceted section the area of its circle, so the
-    mesh weighs what the ogive does (9.9 % light at two elements across without it).
+    mesh weighs what the ogive does (10 % light at two elements across without it).
     Then direction (the disc's frame is any right-handed one about it) and base or tip
     place it."""
     from .shapes import Ogive
