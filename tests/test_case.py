@@ -151,7 +151,7 @@ def test_defaults_filled(tmp_path):
     assert case["gravity"] == [0.0, 0.0, 0.0]
     assert case["grid"]["boundary"] == {"x-": "free", "x+": "free", "y-": "free",
                                         "y+": "free", "z-": "fixed", "z+": "free"}
-    assert case["time"] == {"end": 0.08, "cfl": 0.5, "dt_max": None, "pic": 0.0,
+    assert case["time"] == {"end": 0.08, "cfl": 0.5, "dt_max": None, "dt": None, "pic": 0.0,
                             "transfer": "flip", "scheme": "usf", "max_steps": 1e8}
     assert case["output"] == {"frames": 10, "history_every": 10, "checkpoint_every": 0,
                               "progress": True, "times": [], "energy_warning": 0.05,

@@ -1,7 +1,7 @@
 """FEM bodies in a run: meshes from a box or a meshio file (rotated), gravity, and the
-input they refuse with one line naming the key (exit 2): an FEM body of another shape,
-a mesh without hexahedra, an inverted element, a missing file, grid contact with an FEM
-body; the partition over ranks, 1 rank against 2, and --restart."""
+input they refuse with one line naming the key (exit 2): a mesh without hexahedra, an
+inverted element, a missing file, grid contact with an FEM body; the partition over
+ranks, 1 rank against 2, and --restart."""
 import json
 import os
 
@@ -147,9 +147,6 @@ def test_a_rigid_fem_body_keeps_its_velocity(tmp_path):
 
 
 @pytest.mark.parametrize("geometry, key, words", [
-    ({"type": "ogive", "tip": [0, 0, 0], "direction": [0, 0, 1], "length": 8,
-      "diameter": 2, "crh": 3}, "bodies[0].geometry.type",
-     "an FEM body is made from a box, cylinder, sphere or mesh for now, not a ogive"),
     ({"type": "mesh", "file": "tets.vtu"}, "bodies[0].geometry.file",
      "no hexahedron cells"),
     ({"type": "mesh", "file": "inverted.vtu"}, "bodies[0].geometry.file",

@@ -152,33 +152,3 @@ def test_a_halo_widens_the_block_and_shares_three_planes_around_a_slab_plane():
     assert blocks[1].shared_planes == [(0, (0, 3)), (2, (4, 7))]     # 2..4 and 6..8
     assert blocks[2].shared_planes == [(1, (0, 3))]                  # nodes 6, 7, 8
     assert all(list(b.lo[1:]) == [-1, -1] and list(b.shape[1:]) == [8, 8] for b in blocks)
-
-
-def test_cached_loop_that_inlines_materials_is_dropped_when_they_change(tmp_path):
-    from pmpm.kernels.cache import materials_digest, refresh_inlined_caches
-    stale = tmp_path / "mpm.stress_and_forces-170.py311.nbi"
-    other = tmp_path / "tied.find_ties-20.py311.nbi"
-    stale.write_text("x")
-    other.write_text("x")
-    assert refresh_inlined_caches(str(tmp_path))            # no stamp yet: dropped
-    assert not stale.exists() and other.exists()
-    assert (tmp_path / "materials.sha1").read_text().strip() == materials_digest()
-    stale.write_text("x")
-    assert not refresh_inlined_caches(str(tmp_path))        # same material code: kept
-    assert stale.exists()
-    (tmp_path / "materials.sha1").write_text("0" * 40)
-    assert refresh_inlined_caches(str(tmp_path)) and not stale.exists()
-
-
-def test_cached_fem_element_loop_is_dropped_when_its_stable_step_changes(tmp_path):
-    """Issue 27: element_forces inlines pmpm/fem/stability.py (and the hexahedron and the
-    materials); Numba keys its cache on elements.py alone."""
-    from pmpm.kernels.cache import INLINED, refresh_inlined_caches
-    assert any(path.endswith("stability.py") for path in INLINED)
-    kernels, fem = tmp_path / "kernels", tmp_path / "fem"
-    kernels.mkdir()
-    fem.mkdir()
-    stale = fem / "elements.element_forces-60.py311.nbi"
-    stale.write_text("x")
-    (kernels / "materials.sha1").write_text("0" * 40)
-    assert refresh_inlined_caches(str(kernels), str(fem)) and not stale.exists()

@@ -103,10 +103,12 @@ def union_of(tagged):
 @mirrors(TIME)
 @dataclass(frozen=True)
 class TimeConfig:
-    """End time and time-step control (``time:``); ``dt_max`` None: no limit."""
+    """End time and time-step control (``time:``); ``dt_max`` None: no limit; ``dt``
+    None: the step follows cfl, else it is fixed."""
     end: float
     cfl: float
     dt_max: float | None
+    dt: float | None
     pic: float
     transfer: str
     scheme: str

@@ -10,14 +10,14 @@ from .errors import join, unknown_name
 from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, greater, has_invalid,
                      integer, list_of, mapping, number, text, valid, vector)
 from .hexmesh import (InvertedElementError, MeshDefectError, MixedMeshError, box_counts,
-                      hex_mesh, read_node_sets)
+                      hex_mesh, ogive_counts, read_node_sets)
 from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
 HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
 #: the largest hourglass coefficient a case may give (pmpm.fem.stability)
 MAX_HOURGLASS = 0.5
-FEM_GEOMETRIES = ("box", "cylinder", "sphere", "mesh")
+FEM_GEOMETRIES = ("box", "cylinder", "sphere", "ogive", "mesh")
 AXIS_NAMES = ("x", "y", "z")
 CONSTRAINT = {
     "region": Field(mapping({"min": Field(vector(), unit="mm", doc="lower corner"),
@@ -57,8 +57,12 @@ FEM = {
                           "a sphere is a cubed sphere of round(diameter / element_size) "
                           "elements (even, at least 2) along each axis, a solid cylinder an "
                           "O-grid disc of as many across, swept in round(length / "
-                          "element_size) layers, a tube polar blocks (left out: grid.cell); "
-                          "a mesh file keeps its own elements"),
+                          "element_size) layers, a tube polar blocks, an ogive the same "
+                          "disc swept along its shank and, in layers thinning with the "
+                          "radius, its nose, cut flat where the radius is 0.2 of the "
+                          "shank's, each section scaled out to its circle's area so the "
+                          "rod keeps its mass (left out: grid.cell); a mesh file keeps "
+                          "its own elements"),
     "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
                        doc="Flanagan-Belytschko hourglass control of the one-point "
                            "elements: `stiffness` resists the hourglass displacement "
@@ -78,7 +82,7 @@ FEM = {
                              "nodes on a face take)"),
 }
 METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it is a mesh "
-              "of 8-node hexahedra (a box, cylinder, sphere or mesh file) advanced by explicit central "
+              "of 8-node hexahedra (a box, cylinder, sphere, ogive or mesh file) advanced by explicit central "
               "differences with lumped masses, one-point integration and hourglass "
               "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
               "holds its centroid; with a `rigid` material it moves with its velocity. FEM "
@@ -132,7 +136,7 @@ def check_fem_geometry(body, case_dir, check_geometry, path, problems):
         return
     if geometry["type"] not in FEM_GEOMETRIES:
         problems.add(join(join(path, "geometry"), "type"),
-                     f"an FEM body is made from a box, cylinder, sphere or mesh for now, "
+                     f"an FEM body is made from a box, cylinder, sphere, ogive or mesh, "
                      f"not a {geometry['type']} (mesh it and give the file)")
         return
     if not valid(body["fem"], "element_size") or too_many_elements(body, path, problems):
@@ -186,7 +190,7 @@ def check_node_sets(body, case_dir, path, problems):
 
 
 def element_count(geometry, size):
-    """How many elements ``size`` cuts a box, sphere or cylinder into, counted as
+    """How many elements ``size`` cuts a box, sphere, cylinder or ogive into, counted as
     case.hexmesh cuts them but in floating point (inf past 1e308, no OverflowError);
     None for a mesh file."""
     kind = geometry["type"]
@@ -205,6 +209,9 @@ def element_count(geometry, size):
                              8.0)
                 return float(radial * around * layers)
             return float(_across(geometry["radius"], size) ** 2 * layers)
+        if kind == "ogive":
+            across, shank, nose = ogive_counts(geometry, size)
+            return float(across ** 2 * (shank + nose))
     return None
 
 

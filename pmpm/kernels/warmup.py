@@ -8,7 +8,7 @@ import numpy as np
 from ..materials import layout
 from ..materials.state import MaterialState
 from . import boundary, contact, mpm, tied
-from .cache import refresh_inlined_caches
+from .cache import refresh_kernel_caches
 from .shape import LINEAR, MARKERS
 from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, GridGeometry,
                       NodeBlock, PairRules, PointState, TieSet)
@@ -21,7 +21,7 @@ def warm_up(shape_code=LINEAR, apic=False):
     ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels;
     with ``apic`` also the transfers' affine variants)."""
     started = time.perf_counter()
-    refresh_inlined_caches()
+    refresh_kernel_caches()
     # 3 x 3 x 3 nodes: what a 27-node shape reaches from the point at (0.5, 0.5, 0.5)
     lo, strides, shape = np.zeros(3, np.int64), np.array([9, 3, 1], np.int64), np.full(3, 3, np.int64)
     n_cells = np.full(3, 2, np.int64)

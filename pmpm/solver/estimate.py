@@ -16,6 +16,8 @@ from .errors import SetupError
 FRAME_COLUMNS = ("x", "v", "stress", "eps_p", "rho", "mass", "body", "id", "temp", "e_int")
 #: Checkpoints on disk at once: the two kept and the one being written.
 CHECKPOINTS_AT_ONCE = 3
+#: Relative round-off allowed between a fixed step and the stable step it may equal.
+STEP_SLACK = 1e-9
 #: Bytes of one number in history.csv (a repr-formatted float and its comma).
 HISTORY_NUMBER_BYTES = 24
 
@@ -32,6 +34,7 @@ class RunSize:
     steps: float
     frames: int
     output_bytes: float
+    stable_dt: float = math.inf      # at cfl 1, from the same speed
 
     def line(self, free_bytes):
         """The line rank 0 prints before the run."""
@@ -100,6 +103,9 @@ def estimate(config, n_particles, fastest, t0=0.0, first_frame=True):
     time, output = config.time, config.output
     dt = time.cfl * config.grid.cell / fastest if fastest > 0 else math.inf
     dt = min(dt, time.dt_max or math.inf)
+    stable = config.grid.cell / fastest if fastest > 0 else math.inf
+    if time.dt is not None:
+        dt = time.dt
     remaining = max(float(time.end) - t0, 0.0)
     frame_times = [t for t in Schedule(output, float(time.end)).times
                    if t > t0 + 1e-12 * time.end]
@@ -111,12 +117,12 @@ def estimate(config, n_particles, fastest, t0=0.0, first_frame=True):
     out = (frames * n_particles * bytes_per_particle(FRAME_COLUMNS)
            + CHECKPOINTS_AT_ONCE * n_particles * bytes_per_particle(COLUMNS)
            + rows * row_bytes)
-    return RunSize(int(n_particles), dt, float(steps), frames, float(out))
+    return RunSize(int(n_particles), dt, float(steps), frames, float(out), stable)
 
 
 def size_problems(config, size, free_bytes):
     """Lines naming the key of each limit the run exceeds."""
-    problems = []
+    problems = fixed_step_problems(config, size)
     limit = config.time.max_steps
     if size.steps > limit:
         problems.append(
@@ -130,6 +136,19 @@ def size_problems(config, size, free_bytes):
             f"but the output directory has {_size(free_bytes)} free; write fewer frames "
             f"(output.frames, output.times) or choose another --out")
     return problems
+
+
+def fixed_step_problems(config, size):
+    """The line naming time.dt when the fixed step exceeds the stable step at the start
+    (cfl 1: the cell over the fastest wave plus body speed, windows' ratios and the FEM
+    elements' own steps included)."""
+    fixed = config.time.dt
+    if fixed is None or not fixed > size.stable_dt * (1 + STEP_SLACK):
+        return []
+    return [f"time.dt: {fixed:g} exceeds the stable step at the start, "
+            f"{size.stable_dt:.4g} (at cfl 1, from the fastest wave plus body speed over "
+            f"the grid's cells of {config.grid.cell:g} and the FEM elements' own steps); "
+            f"take at most that, or leave time.dt out to follow time.cfl"]
 
 
 def free_bytes(directory):

@@ -8,6 +8,7 @@ from .. import io
 from ..io.elements_h5 import ElementWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
+from .estimate import STEP_SLACK
 from .energy import EnergyWatch
 from .interrupt import RunInterrupted, received, signal_name
 from .memory import memory_summary
@@ -38,6 +39,7 @@ class Runner:
         self.end = float(self.config.time.end)
         self.cfl = float(self.config.time.cfl)
         self.dt_max = self.config.time.dt_max or np.inf
+        self.fixed_dt = self.config.time.dt
         self.output = self.config.output
         self.schedule = Schedule(self.output, self.end)
         self.case_text = case_text
@@ -123,9 +125,25 @@ class Runner:
     def next_dt(self):
         sim = self.sim
         fastest = sim.fastest_speed()
-        dt = min(self.cfl * sim.grid.h / fastest if fastest > 0 else self.dt_max, self.dt_max)
+        if self.fixed_dt is None:
+            dt = min(self.cfl * sim.grid.h / fastest if fastest > 0 else self.dt_max,
+                     self.dt_max)
+        else:
+            dt = self.fixed_step(fastest)
         target = self.schedule.next_after(sim.time, 1e-12 * self.end) or self.end
         return min(dt, target - sim.time)
+
+    def fixed_step(self, fastest):
+        """time.dt, or a fault (on every rank: ``fastest`` is global) when it exceeds the
+        stable step at cfl 1 of the last step's fastest wave plus point speed: a fixed
+        step past it would blow up."""
+        stable = self.sim.grid.h / fastest if fastest > 0 else np.inf
+        if self.fixed_dt > stable * (1 + STEP_SLACK):
+            raise SolverError(self.fault_message(
+                f"the fixed step time.dt = {self.fixed_dt:g} exceeds the stable step "
+                f"{stable:.4g} (at cfl 1, from the fastest wave plus point speed of the "
+                f"last step); lower time.dt, or leave it out to follow time.cfl", self.fixed_dt))
+        return self.fixed_dt
 
     def advance(self, dt):
         sim = self.sim
