@@ -3,9 +3,9 @@ segments (bilinear free faces), free of MPI and of the case. The search and the 
 geometry are particle-to-surface contact's (pmpm.kernels.surface_contact:
 ``bucket_segments``, ``bucket_of``, ``closest_point``, ``face_shapes``).
 
-* ``find_node_pairs``: per slave node the master face it has crossed at the trial
-  positions (gap g < 0, at most the face's ``depth`` in, its foot inside the face) while
-  approaching it, the one that asks for the largest correction;
+* ``find_node_pairs``: per slave node the nearest master face it has crossed at the
+  trial positions (gap g < 0, at most the face's ``depth`` in, its foot inside the face)
+  while approaching it;
 * ``node_pair_impulses``: per pair the impulse that lands the node on the face, with
   Coulomb's cap on the tangential part.
 
@@ -35,17 +35,16 @@ def relative_normal_speed(v_s, seg_v, xi, eta, n, phi):
 
 @njit(cache=True)
 def find_node_pairs(nx, nv, nbody, seg_x, seg_v, seg_body, seg_key, seg_depth, touches,
-                    off_tol, dt, lo, inv_size, dims, start, items, pair_seg, pair_geo):
+                    tol, lo, inv_size, dims, start, items, pair_seg, pair_geo):
     """Per slave node n (trial positions ``nx``, velocities ``nv``, bodies ``nbody``) its
     segment: among the segments of its bucket whose body it ``touches[nbody, seg_body]``,
-    those it has crossed, -seg_depth[s] < g < 0, with its closest point at most
-    ``off_tol`` from the foot of the normal (inside the face) and approaching,
-    u = (v_n - v_c).n < 0; of those the one that asks for the largest normal velocity
-    change min(-u, -g/dt) (the face the step drove it through: a node at the edge of
-    the face it hits lies in the plane of the side face too, g = 0 there, and no
-    approach), ties to the smaller segment key (the same on any rank count).
-    ``pair_seg[n]``: the segment index or -1; ``pair_geo[n]``: xi, eta, n (3), g.
-    Returns the number of pairs."""
+    those it has crossed, -seg_depth[s] < g < -tol, with its closest point at most
+    ``tol`` from the foot of the normal (inside the face), and approaches,
+    (v_n - v_c).n < 0; of those the nearest, ties to the smaller segment key (the same
+    on any rank count). A node on the edge of the face it hits lies in the plane of the
+    side face too (g = 0 there, to round-off, and no approach): the tolerance and the
+    approach keep it off the side face. ``pair_seg[n]``: the segment index or -1;
+    ``pair_geo[n]``: xi, eta, n (3), g. Returns the number of pairs."""
     out, phi = np.empty(5), np.empty(4)
     n_pairs = 0
     for n in range(len(nx)):
@@ -53,20 +52,19 @@ def find_node_pairs(nx, nv, nbody, seg_x, seg_v, seg_body, seg_key, seg_depth, t
         b = bucket_of(nx[n], lo, inv_size, dims)
         if b < 0:
             continue
-        best, best_key = 0.0, -1
+        best, best_key = np.inf, -1
         for k in range(start[b], start[b + 1]):
             s = items[k]
             if not touches[nbody[n], seg_body[s]]:
                 continue
             g, off = closest_point(seg_x[s], nx[n], out)
-            if g >= 0.0 or g <= -seg_depth[s] or off > off_tol:
+            if g >= -tol or g <= -seg_depth[s] or off > tol:
                 continue
-            u = relative_normal_speed(nv[n], seg_v[s], out[0], out[1], out[2:5], phi)
-            lift = min(-u, -g / dt)
-            if lift <= 0.0:
+            if relative_normal_speed(nv[n], seg_v[s], out[0], out[1], out[2:5], phi) >= 0.0:
                 continue
-            if lift > best or (lift == best and seg_key[s] < best_key):
-                best, best_key = lift, seg_key[s]
+            dist = g * g + off * off
+            if dist < best or (dist == best and seg_key[s] < best_key):
+                best, best_key = dist, seg_key[s]
                 pair_seg[n] = s
                 for c in range(5):
                     pair_geo[n, c] = out[c]

@@ -22,8 +22,8 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
 * Search, every step, at the trial positions (the nodes have moved, x^(k+1) =
   x^k + dt v^(k+1/2)): the buckets of particle-to-surface contact, each face entered in
   the buckets of its box grown by its depth (half its element's size) and a small
-  tolerance; per slave node the nearest face it has crossed, -depth < g <= 0, its foot
-  inside the face (pmpm.kernels.node_contact.find_node_pairs).
+  tolerance; per slave node the nearest face it has crossed, -depth < g < 0, its foot
+  inside the face, that it approaches (pmpm.kernels.node_contact.find_node_pairs).
 * Impulse (pmpm.kernels.node_contact.node_impulse): for an approaching pair the normal
   impulse raises the relative normal velocity by min(-u.n, -g/dt), so the node lands on
   the face at the end of the step (a pair found at a distance in particle contact would
@@ -68,8 +68,10 @@ from .surface_contact import MAX_BUCKETS, free_face_mask, shapes
 GAP_CLOSURE = 0.5
 #: a node may cross a face by at most this share of the face's element size
 DEPTH_SHARE = 0.5
-#: the in-plane distance (in cells) from a face within which a node counts as on it
-OFF_TOLERANCE = 1e-6
+#: in cells: how far a node must have crossed a face to meet it, and how far beside the
+#: face (in its plane) it may lie (round-off: a node on a face's edge lies in the plane
+#: of the side face too)
+TOLERANCE = 1e-10
 SEGMENT_FIELDS = ("gid", "x", "v", "inv_m", "body", "key", "holders", "depth")
 
 
@@ -124,7 +126,7 @@ class NodeContact(Coupling):
                                           elements.materials.rigid)
         self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
         self.friction = np.ascontiguousarray(rules.friction, np.float64)
-        self.off_tol = OFF_TOLERANCE * grid.h
+        self.off_tol = TOLERANCE * grid.h
         self.last_pairs = 0
         self.refresh_faces()
 
@@ -197,7 +199,7 @@ class NodeContact(Coupling):
     # -- the step ---------------------------------------------------------------------
     def after_update_points(self, dt):
         segs = self.with_halo(self.own_segments())
-        pair_n, pair_s, geo = self.find_pairs(segs, dt)
+        pair_n, pair_s, geo = self.find_pairs(segs)
         phi = shapes(geo[:, 0], geo[:, 1])
         fem = self.elements
         slave_phi, seg_phi = self.phi_sums(segs, pair_n, pair_s, phi)
@@ -211,7 +213,7 @@ class NodeContact(Coupling):
         self.push_nodes(segs, pair_n, pair_s, phi, impulses, shifts, dt)
         self.last_pairs = int(np.count_nonzero(depth >= 0.0))
 
-    def find_pairs(self, segs, dt):
+    def find_pairs(self, segs):
         """(local slave node index, segment index, geometry (xi, eta, n, g)) of every
         slave node that has crossed a master face while approaching it."""
         fem = self.elements
@@ -231,7 +233,7 @@ class NodeContact(Coupling):
         knc.find_node_pairs(nx, np.ascontiguousarray(fem.v[self.slaves]),
                             self.node_body[self.slaves], x, np.ascontiguousarray(segs["v"]),
                             segs["body"], segs["key"], np.ascontiguousarray(segs["depth"]),
-                            self.touches, self.off_tol, dt, lo, 1.0 / size, dims, start,
+                            self.touches, self.off_tol, lo, 1.0 / size, dims, start,
                             items, pair_seg, geo)
         found = np.flatnonzero(pair_seg >= 0)
         return self.slaves[found], pair_seg[found], geo[found]
