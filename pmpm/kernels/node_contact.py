@@ -21,6 +21,20 @@ from .surface_contact import bucket_of, closest_point, face_shapes
 
 
 @njit(cache=True)
+def segment_boxes(seg_x, pad, seg_lo, seg_hi):
+    """Each segment's box, grown by its ``pad``: ``seg_lo``, ``seg_hi`` (ns, 3) (the
+    reductions over (ns, 4, 3) that numpy does slowly, along the short axis)."""
+    for s in range(len(seg_x)):
+        for d in range(3):
+            lo = hi = seg_x[s, 0, d]
+            for j in range(1, 4):
+                lo = min(lo, seg_x[s, j, d])
+                hi = max(hi, seg_x[s, j, d])
+            seg_lo[s, d] = lo - pad[s]
+            seg_hi[s, d] = hi + pad[s]
+
+
+@njit(cache=True)
 def relative_normal_speed(v_s, seg_v, xi, eta, n, phi):
     """(v_s - v_c).n with v_c = sum phi_J(xi, eta) v_J, the face point's velocity."""
     face_shapes(xi, eta, phi)

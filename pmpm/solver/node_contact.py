@@ -184,8 +184,8 @@ class NodeContact(Coupling):
         box = (x.min(axis=0), x.max(axis=0)) if len(x) else \
             (np.full(3, np.inf), np.full(3, -np.inf))
         boxes = self.world.allgather(box)
-        pad = own["depth"][:, None] + self.off_tol
-        lo, hi = own["x"].min(axis=1) - pad, own["x"].max(axis=1) + pad
+        lo, hi = np.empty((len(own["x"]), 3)), np.empty((len(own["x"]), 3))
+        knc.segment_boxes(own["x"], own["depth"] + self.off_tol, lo, hi)
         packages = []
         for r, (b_lo, b_hi) in enumerate(boxes):
             going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != self.world.rank)
@@ -220,8 +220,8 @@ class NodeContact(Coupling):
         if not len(segs["key"]) or not len(self.slaves):
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
         x = np.ascontiguousarray(segs["x"])
-        pad = segs["depth"][:, None] + self.off_tol
-        seg_lo, seg_hi = x.min(axis=1) - pad, x.max(axis=1) + pad
+        seg_lo, seg_hi = np.empty((len(x), 3)), np.empty((len(x), 3))
+        knc.segment_boxes(x, segs["depth"] + self.off_tol, seg_lo, seg_hi)
         lo = seg_lo.min(axis=0)
         edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
         extent = seg_hi.max(axis=0) - lo
@@ -254,8 +254,10 @@ class NodeContact(Coupling):
             home = np.concatenate([np.full(len(pair_n), self.world.rank),
                                    segs["holders"][pair_s][:, :, 0].ravel()])
             ids, total = sums_at_home(self.world, gid, key, rows, home)
-        return lookup(ids, total, slave_gid), \
-            lookup(ids, total, segs["gid"].ravel()).reshape(segs["gid"].shape)
+        seg_phi = np.zeros(segs["gid"].shape)
+        used = np.unique(pair_s)
+        seg_phi[used] = lookup(ids, total, segs["gid"][used].ravel()).reshape(-1, 4)
+        return lookup(ids, total, slave_gid), seg_phi
 
     def push_nodes(self, segs, pair_n, pair_s, phi, impulses, shifts, dt):
         """The slave takes -I and the position impulse +Q, each face node J phi_J I and
