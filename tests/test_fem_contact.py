@@ -277,3 +277,23 @@ def test_a_pair_normal_naming_a_body_makes_its_faces_the_only_masters():
     sim = simulation(BARS)
     assert sim.node_contact.touches.tolist() == [[False, True], [True, False]]
     assert sim.surface is None                             # no particle body
+
+
+def test_node_contact_of_a_body_on_the_grid_is_refused_naming_its_key(tmp_path):
+    """The striker meets a particle ball on the grid (CFEMP) and the target by
+    node-to-surface contact: not supported together; the error names the pair's key."""
+    import yaml
+    from pmpm.solver.errors import SetupError
+    case = yaml.safe_load(open(BARS))
+    case["bodies"].append({"name": "ball", "material": "steel",
+                           "geometry": {"type": "sphere", "center": [-5, 0.5, 6],
+                                        "radius": 1.0}})
+    case["grid"]["max"][2] = 8
+    case["contact"] = {"method": 1, "coupling": "surface",
+                       "pairs": [{"bodies": ["striker", "ball"], "coupling": "grid"},
+                                 {"bodies": ["striker", "target"], "friction": 0.1}]}
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump(case))
+    with pytest.raises(SetupError) as error:
+        simulation(str(path))
+    assert "contact.pairs[1].coupling" in str(error.value.problems)

@@ -53,7 +53,8 @@ migrate), overlaps another rank's slab to that rank (a halo; no global gather). 
 is computed on the particle's owner. The phi sums Phi_J of nodes go to the node's lowest
 holder, summed there in (node id, particle id) order, and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
-and 1 rank agrees with N to round-off. The four messages of a step (halo, phi
+and 1 rank agrees with N to round-off (the sums are pmpm.solver.contact_sums', shared with
+node-to-surface contact between FEM bodies, pmpm.solver.node_contact). The four messages of a step (halo, phi
 sums and their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
 exchange_objects), simple rather than fast; neighbour messages would do for slabs wider
 than the elements.
