@@ -10,14 +10,16 @@
                             # positions exceeds 0 cells (absent or none: the paper's rule)
       gap: reach            # how the release rule measures the gap: reach or volume
       coupling: surface     # how FEM bodies meet particle bodies (seed 004): surface
-                            # (ICFEMP, Sec. 3) or grid (CFEMP, Sec. 2.4; needs method 1 or 2)
+                            # (ICFEMP, Sec. 3) or grid (CFEMP, Sec. 2.4; needs method 1 or 2);
+                            # surface: FEM bodies meet each other by node-to-surface contact
       pairs:                # optional: per pair of bodies
         - bodies: [ball, plate]
           friction: 0.0
           normal: ball      # the named body's own normal (Sec. 2.3 choices 1 and 2)
           separation: 0.9
           release: 0.0
-          coupling: grid    # a pair of an FEM body and a particle body
+          coupling: grid    # a pair of an FEM body and a particle body (two FEM bodies:
+                            # surface only)
 
 With method 1 or 2 every body has its own velocity field at nodes that two or more
 bodies reach, and every pair of bodies is in contact.
@@ -77,7 +79,11 @@ COUPLING_DOC = ("how an FEM body and a particle body meet (seed 004): `surface` 
                 "velocity constraint with the pair's Coulomb friction, whatever the element "
                 "size and with any contact.method; `grid` (CFEMP, Sec. 2.4): the FE nodes "
                 "join the multi-velocity grid contact as particles of their body (needs "
-                "method 1 or 2, and elements about the size of a cell)")
+                "method 1 or 2, and elements about the size of a cell). Two FEM bodies "
+                "meet when this is `surface` (or their pair says so): node-to-surface "
+                "contact, the free-surface nodes of each kept out of the other's free "
+                "faces with the pair's friction (docs/validation/fem_contact.md); with "
+                "`grid` they do not meet unless a pair names them with `surface`")
 PAIR = {
     "bodies": Field(Custom(read_pair_bodies, "two body names"),
                     doc="the two bodies of the pair, e.g. [ball, plate]"),
@@ -95,7 +101,11 @@ PAIR = {
                      "out: contact.release)"),
     "coupling": Field(choice(COUPLINGS, "coupling"), OMIT,
                       doc="as contact.coupling, for a pair of an FEM body and a particle "
-                          "body (left out: contact.coupling)"),
+                          "body, or `surface` for a pair of FEM bodies: node-to-surface "
+                          "contact, where `normal` chooses the masters (a body of the pair: "
+                          "its faces only; `stiffer`: the stiffer body's; `average`: both "
+                          "ways, one symmetric pass); `grid` is refused for two FEM bodies "
+                          "(left out: contact.coupling)"),
 }
 CONTACT = {
     "method": Field(Custom(read_method, "`none`, `1`, `2`"), 0,

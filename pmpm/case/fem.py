@@ -89,7 +89,8 @@ METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it i
               "bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
               "or symmetry face takes that condition) and meet particle bodies as "
               "contact.coupling says: `surface` (ICFEMP, seed 004 Sec. 3): the particles are "
-              "kept out of the body's free element faces, with the pair's Coulomb friction; "
+              "kept out of the body's free element faces, with the pair's Coulomb friction (and "
+              "FEM bodies meet each other the same way, node to surface); "
               "`grid` (CFEMP, Sec. 2.4; contact.method 1 or 2): their nodes join the "
               "multi-velocity grid contact as particles of their body, on the coarse grid "
               "(no refined window over them; usf only), and take the contact's velocity "
@@ -238,8 +239,8 @@ def too_many_elements(body, path, problems):
 def check_coupling(case, fem_names, problems):
     """FEM bodies meet particle bodies by ``contact.coupling`` (or a pair's): grid coupling
     needs the multi-velocity grid (method 1 or 2); in a surface pair the FEM body is the
-    master, so a pair's ``normal`` may not name its particle body; two FEM bodies do not
-    meet yet; a window follows particle bodies only."""
+    master, so a pair's ``normal`` may not name its particle body; two FEM bodies meet by
+    surface (node-to-surface) contact only; a window follows particle bodies only."""
     contact = case["contact"]
     if contact is INVALID:
         return
@@ -289,8 +290,10 @@ def check_mixed_coupling(case, fem_names, problems):
 def check_pair_coupling(pair, path, contact, fem_names, problems):
     named = [n for n in pair["bodies"] if n in fem_names]
     if len(named) == 2:
-        problems.add(join(path, "bodies"), "FEM bodies do not meet each other yet (no "
-                     "FEM-to-FEM contact): list pairs of an FEM body and a particle body")
+        if pair.get("coupling", contact.get("coupling")) == "grid":
+            problems.add(join(path, "coupling"), "two FEM bodies meet by surface "
+                         "(node-to-surface) contact only, not on the grid: set this "
+                         "pair's coupling to surface")
         return
     if not named:
         return

@@ -18,7 +18,7 @@ CNODAL_KINDS = column_kinds(kc.CNODAL, velocity=(1,), geometric=(4, 7))
 CFORCE_KINDS = column_kinds(3, velocity=(0,))
 VOLUME_KINDS = column_kinds(1)
 MAX_BODIES = 62          # one bit per body in the int64 node masks
-#: ``ContactRules.coupling`` codes of a pair of an FEM body and a particle body
+#: ``ContactRules.coupling`` codes of a pair of an FEM body and another body
 NO_COUPLING, GRID_COUPLING, SURFACE_COUPLING = 0, 1, 2
 COUPLING_CODES = {"grid": GRID_COUPLING, "surface": SURFACE_COUPLING}
 
@@ -39,8 +39,9 @@ class ContactRules:
     volume_gap : bool   the release rule measures the gap from the bodies' shares of the
         node's hat (``contact.gap: volume``) rather than their particles' reach
     coupling : (nb, nb) int64   for a pair of an FEM body and a particle body, how they
-        meet (GRID_COUPLING: CFEMP, SURFACE_COUPLING: ICFEMP); NO_COUPLING for every
-        other pair
+        meet (GRID_COUPLING: CFEMP, SURFACE_COUPLING: ICFEMP); for a pair of FEM bodies
+        SURFACE_COUPLING when they meet by node-to-surface contact
+        (pmpm.solver.node_contact); NO_COUPLING for every other pair
     """
 
     def __init__(self, contact, bodies, fem=None):
@@ -87,13 +88,22 @@ class ContactRules:
 
 
 def _couplings(contact, names, fem):
-    """The coupling code of every pair (see ``ContactRules.coupling``)."""
+    """The coupling code of every pair (see ``ContactRules.coupling``). Two FEM bodies
+    meet only by surface (node-to-surface) contact: their pair is SURFACE_COUPLING when
+    its coupling (or the section's) is surface, else NO_COUPLING (the case check refuses
+    a listed pair of FEM bodies with grid coupling)."""
     mixed = fem[:, None] != fem[None, :]
+    both = fem[:, None] & fem[None, :] & ~np.eye(len(fem), dtype=bool)
     coupling = np.where(mixed, COUPLING_CODES[contact.coupling], NO_COUPLING)
+    if contact.coupling == "surface":
+        coupling[both] = SURFACE_COUPLING
     for pair in contact.pairs:
         a, b = (names.index(name) for name in pair.bodies)
         if mixed[a, b]:
             coupling[a, b] = coupling[b, a] = COUPLING_CODES[pair.coupling]
+        elif both[a, b]:
+            coupling[a, b] = coupling[b, a] = SURFACE_COUPLING \
+                if pair.coupling == "surface" else NO_COUPLING
     return coupling.astype(np.int64)
 
 

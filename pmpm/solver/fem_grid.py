@@ -251,7 +251,9 @@ def check_grid_coupling(config, rules, coupled, elements, world):
     body onto) a grid-coupled FEM body. Collective (the FEM bodies' box)."""
     problems = []
     names = [b.name for b in config.bodies]
-    for b in np.flatnonzero(coupled & (rules.coupling == SURFACE_COUPLING).any(axis=1)):
+    particles = np.array([b.method != "fem" for b in config.bodies])
+    surface = (rules.coupling == SURFACE_COUPLING) & particles[None, :]
+    for b in np.flatnonzero(coupled & surface.any(axis=1)):
         problems.append(f"{pair_key(config.contact, names[b])}: FEM body '{names[b]}' meets "
                         f"some particle bodies on the grid and others by surface contact; "
                         f"give all its pairs one coupling")

@@ -17,6 +17,7 @@ from .errors import SetupError
 from .fem_bodies import FemBodies, build_meshes
 from .fem_grid import grid_coupled_nodes
 from .levels import Hierarchy
+from .node_contact import NodeContact, check_node_contact, node_contact_pairs
 from .observe import body_stats, energies
 from .particle_bodies import ParticleBodies
 from .refine import Refiner
@@ -66,11 +67,19 @@ class Simulation:
                                          start_shares(config)))
         nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
                                    grid, bodies, m_tiny)
-        self.surface = None
-        if elements and ((rules.coupling == SURFACE_COUPLING).any() or converting):
+        self.surface = self.node_contact = None
+        fem = np.array([b.method == "fem" for b in config.bodies])
+        surface = rules.coupling == SURFACE_COUPLING
+        if elements and ((surface & (fem[:, None] != fem[None, :])).any() or converting):
             self.surface = SurfaceContact(rules, world, self.points, elements, grid,
                                           self.decomposition, self.converted_spacing())
             couplings.append(self.surface)
+        touches = node_contact_pairs(rules, elements.body_indices,
+                                     elements.materials.rigid) if elements else None
+        if elements and touches.any():
+            check_node_contact(config, rules, touches)
+            self.node_contact = NodeContact(rules, world, elements, grid)
+            couplings.append(self.node_contact)
         self.conversion = Conversion(world, self.conversion_rules, elements, self.points,
                                      couplings, n_total, grid.h,
                                      [b.particles_per_cell for b in config.bodies]) \
@@ -199,8 +208,10 @@ class Simulation:
         if not self.elements:
             return self.decomposition.rebalance(threshold, self.kinds)
         result = self.decomposition.rebalance(threshold, self.kinds, [self.elements])
-        if self.elements.migrate(self.grid, self.slabs) and self.surface:
-            self.surface.refresh_faces()      # the faces of the elements now held here
+        if self.elements.migrate(self.grid, self.slabs):
+            for contact in (self.surface, self.node_contact):
+                if contact:
+                    contact.refresh_faces()   # the faces of the elements now held here
         return result
 
     def restart_state(self):

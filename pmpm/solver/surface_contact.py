@@ -53,7 +53,8 @@ migrate), overlaps another rank's slab to that rank (a halo; no global gather). 
 is computed on the particle's owner. The phi sums Phi_J of nodes go to the node's lowest
 holder, summed there in (node id, particle id) order, and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
-and 1 rank agrees with N to round-off. The four messages of a step (halo, phi
+and 1 rank agrees with N to round-off (the sums are pmpm.solver.contact_sums', shared with
+node-to-surface contact between FEM bodies, pmpm.solver.node_contact). The four messages of a step (halo, phi
 sums and their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
 exchange_objects), simple rather than fast; neighbour messages would do for slabs wider
 than the elements.
@@ -64,6 +65,8 @@ from ..comm.shared_nodes import exchange_objects, swap_with
 from ..fem.hexahedron import FACES
 from ..kernels import surface_contact as ksc
 from .contact import SURFACE_COUPLING
+from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
+                           totals_at_holders)
 from .couplings import Coupling
 
 #: the share of a particle centre's depth inside a face that its pair closes in a step,
@@ -245,20 +248,7 @@ class SurfaceContact(Coupling):
     def sums_over_ranks(self, gid, pid, rows, home):
         """(node ids, sums of ``rows``) of the nodes in ``gid``, over all ranks, each
         summed on the node's lowest holder in (node id, particle id) order."""
-        asks = exchange_objects(self.world, [(gid[home == r], pid[home == r], rows[home == r])
-                                             for r in range(self.world.size)])
-        ids, total = sums_in_order(np.concatenate([a[0] for a in asks]),
-                                   np.concatenate([a[1] for a in asks]),
-                                   np.concatenate([a[2] for a in asks]))
-        answers = []
-        for ask in asks:
-            mine = np.unique(ask[0])
-            answers.append((mine, total[np.searchsorted(ids, mine)]))
-        back = exchange_objects(self.world, answers)
-        ids = np.concatenate([a for a, _ in back])
-        total = np.concatenate([b for _, b in back])
-        order = np.argsort(ids)
-        return ids[order], total[order]
+        return sums_at_home(self.world, gid, pid, rows, home)
 
     def push_nodes(self, segs, pair_p, pair_s, phi, impulses, dt):
         """The node impulses phi_J I to every holder of node J, summed there in (node id,
@@ -269,32 +259,13 @@ class SurfaceContact(Coupling):
         pid = np.repeat(p.id[pair_p], 4)
         rows = (phi[:, :, None] * impulses[:, None, :]).reshape(-1, 3)
         holders = segs["holders"][pair_s].reshape(len(gid), segs["holders"].shape[2])
-        parts = [(gid, pid, rows)] if self.world.size == 1 else exchange_objects(
-            self.world, [(gid[w], pid[w], rows[w]) for w in
-                         ((holders == r).any(axis=1) for r in range(self.world.size))])
-        gid = np.concatenate([part[0] for part in parts])
-        pid = np.concatenate([part[1] for part in parts])
-        rows = np.concatenate([part[2] for part in parts])
-        order = np.lexsort((pid, gid))
-        local = np.searchsorted(fem.node_id, gid[order])
-        total = np.zeros_like(fem.v)
-        np.add.at(total, local, rows[order])
+        total = totals_at_holders(self.world, gid, pid, rows, holders, fem.node_id)
         total[fem.fixed] = 0.0
         total[fem.rigid_nodes()] = 0.0
         before = fem.v.copy()
         fem.v += total / fem.mass[:, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before)
-
-
-def sums_in_order(gid, pid, rows):
-    """(sorted unique node ids, the sums of ``rows`` per node), each sum taken in
-    particle id order (so the same rows give the same sums however they arrive)."""
-    order = np.lexsort((pid, gid))
-    ids, at = np.unique(gid[order], return_inverse=True)
-    total = np.zeros((len(ids),) + rows.shape[1:])
-    np.add.at(total, at.ravel(), rows[order])
-    return ids, total
 
 
 def approach_depth(geo):
@@ -337,23 +308,3 @@ def face_rows(gids):
     """One comparable value per face: its sorted global node ids as 32 raw bytes."""
     keys = np.ascontiguousarray(np.sort(gids, axis=1).astype(np.int64))
     return keys.view(np.dtype((np.void, 32))).ravel()
-
-
-def node_holders(rank, partners, n_nodes):
-    """(n_nodes, k) the ranks holding each local node, ascending, padded with -1."""
-    lists = [[rank] for _ in range(n_nodes)]
-    for other, idx in partners:
-        for i in idx:
-            lists[i].append(other)
-    width = max((len(l) for l in lists), default=1)
-    out = np.full((n_nodes, width), -1, np.int64)
-    for i, l in enumerate(lists):
-        out[i, :len(l)] = sorted(l)
-    return out
-
-
-def pad_holders(holders, width):
-    """Widen (ns, 4, k) holder lists to ``width`` with -1."""
-    out = np.full(holders.shape[:2] + (width,), -1, np.int64)
-    out[:, :, :holders.shape[2]] = holders
-    return out

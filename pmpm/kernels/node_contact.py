@@ -1,0 +1,146 @@
+"""Node-to-surface contact between FEM bodies: the loops over slave FE nodes and master
+segments (bilinear free faces), free of MPI and of the case. The search and the face
+geometry are particle-to-surface contact's (pmpm.kernels.surface_contact:
+``bucket_segments``, ``bucket_of``, ``closest_point``, ``face_shapes``).
+
+* ``find_node_pairs``: per slave node the nearest master face it has crossed at the
+  trial positions (gap g < 0, at most the face's ``depth`` in, its foot inside the face)
+  while approaching it;
+* ``node_pair_impulses``: per pair the impulse that lands the node on the face, with
+  Coulomb's cap on the tangential part.
+
+Unlike a particle (a sphere of half its spacing, kept out of the face) a node is a point
+on its body's surface: its pair acts only once the trial step has taken it through the
+face, and then only as far as it takes to put it back on the face (or to stop the
+approach, whichever is less), so that bodies meet where their surfaces meet.
+"""
+import numpy as np
+from numba import njit
+
+from .surface_contact import bucket_of, closest_point, face_shapes
+
+
+@njit(cache=True)
+def segment_boxes(seg_x, pad, seg_lo, seg_hi):
+    """Each segment's box, grown by its ``pad``: ``seg_lo``, ``seg_hi`` (ns, 3) (the
+    reductions over (ns, 4, 3) that numpy does slowly, along the short axis)."""
+    for s in range(len(seg_x)):
+        for d in range(3):
+            lo = hi = seg_x[s, 0, d]
+            for j in range(1, 4):
+                lo = min(lo, seg_x[s, j, d])
+                hi = max(hi, seg_x[s, j, d])
+            seg_lo[s, d] = lo - pad[s]
+            seg_hi[s, d] = hi + pad[s]
+
+
+@njit(cache=True)
+def relative_normal_speed(v_s, seg_v, xi, eta, n, phi):
+    """(v_s - v_c).n with v_c = sum phi_J(xi, eta) v_J, the face point's velocity."""
+    face_shapes(xi, eta, phi)
+    u = 0.0
+    for d in range(3):
+        vc = 0.0
+        for j in range(4):
+            vc += phi[j] * seg_v[j, d]
+        u += (v_s[d] - vc) * n[d]
+    return u
+
+
+@njit(cache=True)
+def find_node_pairs(nx, nv, nbody, seg_x, seg_v, seg_body, seg_key, seg_depth, touches,
+                    tol, lo, inv_size, dims, start, items, pair_seg, pair_geo):
+    """Per slave node n (trial positions ``nx``, velocities ``nv``, bodies ``nbody``) its
+    segment: among the segments of its bucket whose body it ``touches[nbody, seg_body]``,
+    those it has crossed, -seg_depth[s] < g < -tol, with its closest point at most
+    ``tol`` from the foot of the normal (inside the face), and approaches,
+    (v_n - v_c).n < 0; of those the nearest, ties to the smaller segment key (the same
+    on any rank count). A node on the edge of the face it hits lies in the plane of the
+    side face too (g = 0 there, to round-off, and no approach): the tolerance and the
+    approach keep it off the side face. ``pair_seg[n]``: the segment index or -1;
+    ``pair_geo[n]``: xi, eta, n (3), g. Returns the number of pairs."""
+    out, phi = np.empty(5), np.empty(4)
+    n_pairs = 0
+    for n in range(len(nx)):
+        pair_seg[n] = -1
+        b = bucket_of(nx[n], lo, inv_size, dims)
+        if b < 0:
+            continue
+        best, best_key = np.inf, -1
+        for k in range(start[b], start[b + 1]):
+            s = items[k]
+            if not touches[nbody[n], seg_body[s]]:
+                continue
+            g, off = closest_point(seg_x[s], nx[n], out)
+            if g >= -tol or g <= -seg_depth[s] or off > tol:
+                continue
+            if relative_normal_speed(nv[n], seg_v[s], out[0], out[1], out[2:5], phi) >= 0.0:
+                continue
+            dist = g * g + off * off
+            if dist < best or (dist == best and seg_key[s] < best_key):
+                best, best_key = dist, seg_key[s]
+                pair_seg[n] = s
+                for c in range(5):
+                    pair_geo[n, c] = out[c]
+                pair_geo[n, 5] = g
+        if pair_seg[n] >= 0:
+            n_pairs += 1
+    return n_pairs
+
+
+@njit(cache=True)
+def node_impulse(inv_ms, v_s, v_nodes, lent_inv_m, phi, n, g, mu, dt, impulse):
+    """The impulse I on the contact point C of one pair (the slave node takes -I) and
+    the pair's residual depth. ``inv_ms``: the inverse of the mass the slave lends the
+    pair, ``lent_inv_m[J]``: phi_J / (the mass master node J lends it), 0 for a rigid or
+    held node; 1/m = inv_ms + sum phi_J lent_inv_m[J] is the pair's inverse mass.
+    With the relative velocity u = v_s - v_c (v_c = sum phi_J v_J) approaching,
+    u.n < 0, and the trial gap g <= 0, the normal part raises u.n by
+    d = min(-u.n, -g/dt): the node lands on the face (g/dt) or, already inside, stops.
+    The tangential part sticks, u_t m, capped at mu times the normal part (Coulomb).
+    Returns m times the depth left after the landing, max(0, -(g + dt d)) (0 unless
+    the node was inside the face at the start of the step): the position impulse that
+    would put the node back on the face; -1 when no impulse acts."""
+    inv_m = inv_ms
+    for j in range(4):
+        inv_m += phi[j] * lent_inv_m[j]
+    rel = np.empty(3)
+    for d in range(3):
+        vc = 0.0
+        for j in range(4):
+            vc += phi[j] * v_nodes[j, d]
+        rel[d] = v_s[d] - vc
+    approach = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
+    if approach >= 0.0 or inv_m <= 0.0:
+        impulse[:] = 0.0
+        return -1.0
+    lift = min(-approach, -g / dt)
+    normal = -lift / inv_m                        # along n; negative: C is pushed in
+    tangent_norm = 0.0
+    for d in range(3):
+        impulse[d] = (rel[d] - approach * n[d]) / inv_m
+        tangent_norm += impulse[d] * impulse[d]
+    tangent_norm = np.sqrt(tangent_norm)
+    cap = mu * abs(normal)
+    factor = cap / tangent_norm if tangent_norm > cap else 1.0
+    for d in range(3):
+        impulse[d] = normal * n[d] + factor * impulse[d]
+    return max(0.0, -(g + dt * lift)) / inv_m
+
+
+@njit(cache=True)
+def node_pair_impulses(pair_n, pair_s, pair_geo, lent_inv_ms, v, nbody, seg_v, seg_inv_m,
+                       seg_body, friction, dt, impulses, depth):
+    """``impulses[k]`` (3): the impulse on C of pair k (slave node ``pair_n[k]``, segment
+    ``pair_s[k]``), zero for a separating pair; ``depth[k]``: its residual depth times its mass (-1:
+    no impulse). ``lent_inv_ms`` per slave node Phi / m, ``seg_inv_m`` (ns, 4) per
+    segment node Phi_J / m_J: the inverses of the masses they lend a pair per unit
+    weight (Phi: the sum of the node's weights over all its pairs, 1 as a slave, phi_J
+    as a master node)."""
+    phi = np.empty(4)
+    for k in range(len(pair_n)):
+        i, s = pair_n[k], pair_s[k]
+        face_shapes(pair_geo[k, 0], pair_geo[k, 1], phi)
+        depth[k] = node_impulse(lent_inv_ms[i], v[i], seg_v[s], seg_inv_m[s], phi,
+                                pair_geo[k, 2:5], pair_geo[k, 5],
+                                friction[nbody[i], seg_body[s]], dt, impulses[k])

@@ -1,0 +1,83 @@
+"""Sums over the ranks that the contacts with FEM faces share (particle-to-surface,
+pmpm.solver.surface_contact, and node-to-surface, pmpm.solver.node_contact).
+
+A contact pair is computed on one rank, but the FE nodes it pushes may be held by
+several (their elements live on different ranks). What a pair gives a node is a row
+keyed by (node id, pair key), the pair key being the particle id or the slave node id.
+Every sum over such rows is taken in (node id, pair key) order, so the same rows give
+the same sums bit for bit however they were spread over ranks and however they arrive:
+1 rank agrees with N to round-off, and every copy of a shared node takes the same total.
+The messages are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.exchange_objects),
+simple rather than fast.
+"""
+import numpy as np
+
+from ..comm.shared_nodes import exchange_objects
+
+
+def sums_in_order(gid, pid, rows):
+    """(sorted unique node ids, the sums of ``rows`` per node), each sum taken in
+    particle id order (so the same rows give the same sums however they arrive)."""
+    order = np.lexsort((pid, gid))
+    ids, at = np.unique(gid[order], return_inverse=True)
+    total = np.zeros((len(ids),) + rows.shape[1:])
+    np.add.at(total, at.ravel(), rows[order])
+    return ids, total
+
+
+def sums_at_home(world, gid, pid, rows, home):
+    """(node ids, sums of ``rows``) of the nodes in ``gid``, over all ranks (collective):
+    each rank sends its rows to the node's ``home`` rank (its lowest holder), which sums
+    them in (node id, pair key ``pid``) order and answers with the totals."""
+    asks = exchange_objects(world, [(gid[home == r], pid[home == r], rows[home == r])
+                                    for r in range(world.size)])
+    ids, total = sums_in_order(np.concatenate([a[0] for a in asks]),
+                               np.concatenate([a[1] for a in asks]),
+                               np.concatenate([a[2] for a in asks]))
+    answers = []
+    for ask in asks:
+        mine = np.unique(ask[0])
+        answers.append((mine, total[np.searchsorted(ids, mine)]))
+    back = exchange_objects(world, answers)
+    ids = np.concatenate([a for a, _ in back])
+    total = np.concatenate([b for _, b in back])
+    order = np.argsort(ids)
+    return ids[order], total[order]
+
+
+def totals_at_holders(world, gid, pid, rows, holders, node_id):
+    """(len(node_id),) + rows.shape[1:]: per local node (``node_id``: this rank's node
+    ids, ascending) the sum of the rows of every rank addressed to it. Each row goes to
+    every rank of its node's ``holders`` (ranks, padded with -1) and is summed there in
+    (node id, pair key ``pid``) order (collective)."""
+    parts = [(gid, pid, rows)] if world.size == 1 else exchange_objects(
+        world, [(gid[w], pid[w], rows[w]) for w in
+                ((holders == r).any(axis=1) for r in range(world.size))])
+    gid = np.concatenate([part[0] for part in parts])
+    pid = np.concatenate([part[1] for part in parts])
+    rows = np.concatenate([part[2] for part in parts])
+    order = np.lexsort((pid, gid))
+    local = np.searchsorted(node_id, gid[order])
+    total = np.zeros((len(node_id),) + rows.shape[1:])
+    np.add.at(total, local, rows[order])
+    return total
+
+
+def node_holders(rank, partners, n_nodes):
+    """(n_nodes, k) the ranks holding each local node, ascending, padded with -1."""
+    lists = [[rank] for _ in range(n_nodes)]
+    for other, idx in partners:
+        for i in idx:
+            lists[i].append(other)
+    width = max((len(l) for l in lists), default=1)
+    out = np.full((n_nodes, width), -1, np.int64)
+    for i, l in enumerate(lists):
+        out[i, :len(l)] = sorted(l)
+    return out
+
+
+def pad_holders(holders, width):
+    """Widen (ns, 4, k) holder lists to ``width`` with -1."""
+    out = np.full(holders.shape[:-1] + (width,), -1, np.int64)
+    out[..., :holders.shape[-1]] = holders
+    return out

@@ -1,0 +1,294 @@
+"""Node-to-surface contact between FEM bodies: the free-surface nodes of one body are kept
+out of the free faces of the other by a velocity constraint with Coulomb friction, with
+the search, face geometry, mass sharing and MPI sums of particle-to-surface contact
+(pmpm.solver.surface_contact, seed 004 Sec. 3; the seed does not describe FEM-to-FEM
+contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
+
+* Which bodies: a pair of FEM bodies whose coupling (``contact.pairs[i].coupling``, else
+  ``contact.coupling``) is ``surface``. The pair's ``normal`` chooses the masters: a body
+  of the pair (its faces are the masters, the other's nodes the slaves: one direction),
+  ``stiffer`` (the stiffer body's faces) or ``average`` (the default: both directions).
+  Two rigid bodies do not meet.
+* One symmetric pass, not two: every slave node of either body finds its master face in
+  the same search at the same trial state, and every pair is solved at once (Jacobi).
+  Two passes in turn would depend on which body goes first (the second pass sees the
+  first's correction); the symmetric pass gives the same answer with the bodies' names
+  swapped. That two pairs (A's node on B's face and B's node on A's face) then correct
+  one meeting twice is what the mass sharing below takes care of.
+* Slaves: the nodes of the free faces of a slave body (over all ranks: a node counts
+  when any holder has a free face on it), each computed on its lowest holder (the rank
+  that counts it). Masters: the free faces of a master body, as
+  ``SurfaceContact.refresh_faces`` finds them.
+* Search, every step, at the trial positions (the nodes have moved, x^(k+1) =
+  x^k + dt v^(k+1/2)): the buckets of particle-to-surface contact, each face entered in
+  the buckets of its box grown by its depth (half its element's size) and a small
+  tolerance; per slave node the nearest face it has crossed, -depth < g < 0, its foot
+  inside the face, that it approaches (pmpm.kernels.node_contact.find_node_pairs).
+* Impulse (pmpm.kernels.node_contact.node_impulse): for an approaching pair the normal
+  impulse raises the relative normal velocity by min(-u.n, -g/dt), so the node lands on
+  the face at the end of the step (a pair found at a distance in particle contact would
+  stop early; a node that is met only when it crosses is not); the tangent sticks up to
+  mu times the normal impulse. The slave takes -I on its velocity, each node J of the
+  face phi_J I; the positions move by dt times the velocity changes. A node left inside
+  by the Jacobi pass (rare) is moved out by GAP_CLOSURE of its depth, by a position
+  impulse shared like the impulse (the mass-weighted mean position is kept).
+* Mass sharing: a node lends each of its pairs the share w / Phi of its mass, w its
+  weight in the pair (1 as the slave, phi_J as a master node) and Phi the sum of its
+  weights over all approaching pairs. Two meshes that match node for node meet as two
+  pairs per node pair (A's node on B's face, B's node on A's face), each with half of
+  each node's mass: together they make the full stick impulse of the two nodes, as a
+  single pass would. Momentum is exact: every impulse on a slave is taken by the
+  face's nodes, and every node takes the full sum of its rows.
+
+MPI: elements live on the rank of their centroid's slab; a node is held by every rank
+holding one of its elements. Each step every rank sends copies of its master faces whose
+box, grown by the face's depth, meets the box of another rank's slave nodes (one
+allgather of boxes, one all-to-all of faces); each pair is computed on the rank that
+counts its slave node. The Phi sums go to each node's lowest holder and back, and the
+rows of the impulses (slave and master nodes alike) to every holder of the node, all
+summed in (node id, slave node id) order (pmpm.solver.contact_sums): every copy of a
+node takes the same total, and 1 rank agrees with N to round-off.
+"""
+import numpy as np
+
+from ..comm.shared_nodes import exchange_objects, sum_shared_rows
+from ..fem.hexahedron import FACES
+from ..kernels import node_contact as knc
+from ..kernels import surface_contact as ksc
+from .contact import SURFACE_COUPLING
+from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
+                           totals_at_holders)
+from .couplings import Coupling
+from .errors import SetupError
+from .fem_grid import grid_coupled_bodies
+from .surface_contact import MAX_BUCKETS, free_face_mask, shapes
+
+#: the share of a depth left after the impulses that a pair closes in a step, by moving
+#: the positions (not the velocities: no energy, no momentum)
+GAP_CLOSURE = 0.5
+#: a node may cross a face by at most this share of the face's element size
+DEPTH_SHARE = 0.5
+#: in cells: how far a node must have crossed a face to meet it, and how far beside the
+#: face (in its plane) it may lie (round-off: a node on a face's edge lies in the plane
+#: of the side face too)
+TOLERANCE = 1e-10
+SEGMENT_FIELDS = ("gid", "x", "v", "inv_m", "body", "key", "holders", "depth")
+
+
+def node_contact_pairs(rules, fem_bodies, rigid):
+    """(nb, nb) bool: ``[a, b]`` when the free-surface nodes of FEM body a are slaves
+    against the free faces of FEM body b (see the module docstring)."""
+    nb = len(rules.coupling)
+    fem = np.zeros(nb, bool)
+    fem[list(fem_bodies)] = True
+    rigid = np.asarray(rigid, bool)
+    pair = (rules.coupling == SURFACE_COUPLING) & fem[:, None] & fem[None, :] \
+        & ~(rigid[:, None] & rigid[None, :]) & ~np.eye(nb, dtype=bool)
+    master = rules.master
+    return pair & ((master == -1) | (master == np.arange(nb)[None, :]))
+
+
+def check_node_contact(config, rules, touches):
+    """SetupError naming the key of a pair of FEM bodies in node-to-surface contact of
+    which one also meets particle bodies on the grid (CFEMP moves its nodes through the
+    grid contact; the two together are not validated)."""
+    names = [b.name for b in config.bodies]
+    coupled = grid_coupled_bodies(rules, [b.method == "fem" for b in config.bodies])
+    problems = []
+    for a, b in zip(*np.nonzero(np.triu(touches | touches.T))):
+        if coupled[a] or coupled[b]:
+            key = next((f"contact.pairs[{i}].coupling" for i, pair in
+                        enumerate(config.contact.pairs)
+                        if set(pair.bodies) == {names[a], names[b]}), "contact.coupling")
+            problems.append(f"{key}: FEM bodies '{names[a]}' and '{names[b]}' meet by "
+                            f"node-to-surface contact, but "
+                            f"'{names[a] if coupled[a] else names[b]}' meets particle "
+                            f"bodies on the grid (CFEMP); the two are not supported "
+                            f"together: use surface coupling for its particle pairs")
+    if problems:
+        raise SetupError(problems)
+
+
+class NodeContact(Coupling):
+    """Node-to-surface contact of the FEM bodies that meet with SURFACE_COUPLING.
+
+    Parameters
+    ----------
+    rules : solver.contact.ContactRules   ``coupling``, ``master`` and ``friction``
+    world : comm.World
+    elements : solver.fem_bodies.FemBodies
+    grid : grid.CoarseGrid   (the cell, for the tolerances)
+    """
+
+    def __init__(self, rules, world, elements, grid):
+        self.world, self.elements = world, elements
+        self.touches = node_contact_pairs(rules, elements.body_indices,
+                                          elements.materials.rigid)
+        self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
+        self.friction = np.ascontiguousarray(rules.friction, np.float64)
+        self.off_tol = TOLERANCE * grid.h
+        self.last_pairs = 0
+        self.refresh_faces()
+
+    @property
+    def active(self):
+        return bool(self.touches.any())
+
+    def after_elements_changed(self):
+        self.refresh_faces()
+
+    # -- the slaves and the master segments ------------------------------------------
+    def refresh_faces(self):
+        """The master faces and the slave nodes of this rank's elements (collective
+        among the ranks that share nodes); call again whenever the elements it holds
+        change."""
+        fem = self.elements
+        faces = fem.hexes[:, FACES].reshape(-1, 4)
+        key = (fem.element_id[:, None] * 6 + np.arange(6)).ravel().astype(np.int64)
+        free = free_face_mask(self.world, faces, fem.node_id, fem.partners)
+        face_body = np.repeat(fem.body, 6)
+        keep = free & self.masters[face_body]
+        self.face_nodes = np.ascontiguousarray(faces[keep])
+        self.face_key = key[keep]
+        self.holders = node_holders(self.world.rank, fem.partners, len(fem.x))
+        inv_m = np.where(fem.fixed.all(axis=1), 0.0, 1.0 / fem.mass)
+        inv_m[fem.rigid_nodes()] = 0.0
+        self.inv_m = inv_m
+        self.face_inv_m = inv_m[self.face_nodes]
+        self.face_gid = fem.node_id[self.face_nodes]
+        self.face_body = fem.node_body[self.face_nodes[:, 0]].astype(np.int64)
+        self.face_holders = self.holders[self.face_nodes]
+        size = np.cbrt(np.repeat(fem.vol0, 6)[keep])
+        self.face_depth = DEPTH_SHARE * size
+        self.slaves = self.slave_nodes(faces, free & self.slave_bodies[face_body])
+        self.node_body = fem.node_body.astype(np.int64)
+
+    def slave_nodes(self, faces, surface):
+        """Local indices of the nodes this rank counts that lie on a free face of a
+        slave body, here or on any other holder (collective among the sharers)."""
+        fem = self.elements
+        marked = np.zeros((len(fem.x), 1))
+        marked[faces[surface].ravel(), 0] = 1.0
+        marked = sum_shared_rows(self.world, marked, fem.partners)
+        return np.flatnonzero((marked[:, 0] > 0) & fem.owned)
+
+    def own_segments(self):
+        fem, nodes = self.elements, self.face_nodes
+        return {"gid": self.face_gid, "x": fem.x[nodes], "v": fem.v[nodes],
+                "inv_m": self.face_inv_m, "body": self.face_body, "key": self.face_key,
+                "holders": self.face_holders, "depth": self.face_depth}
+
+    def with_halo(self, own):
+        """Own segments plus copies of the other ranks' segments whose box, grown by
+        their depth, meets the box of this rank's slave nodes (collective)."""
+        if self.world.size == 1:
+            return own
+        x = self.elements.x[self.slaves]
+        box = (x.min(axis=0), x.max(axis=0)) if len(x) else \
+            (np.full(3, np.inf), np.full(3, -np.inf))
+        boxes = self.world.allgather(box)
+        lo, hi = np.empty((len(own["x"]), 3)), np.empty((len(own["x"]), 3))
+        knc.segment_boxes(own["x"], own["depth"] + self.off_tol, lo, hi)
+        packages = []
+        for r, (b_lo, b_hi) in enumerate(boxes):
+            going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != self.world.rank)
+            packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
+        parts = [own] + exchange_objects(self.world, packages)
+        width = max(part["holders"].shape[2] for part in parts)
+        return {k: np.concatenate([pad_holders(part[k], width) if k == "holders"
+                                   else part[k] for part in parts])
+                for k in SEGMENT_FIELDS}
+
+    # -- the step ---------------------------------------------------------------------
+    def after_update_points(self, dt):
+        segs = self.with_halo(self.own_segments())
+        pair_n, pair_s, geo = self.find_pairs(segs)
+        phi = shapes(geo[:, 0], geo[:, 1])
+        fem = self.elements
+        slave_phi, seg_phi = self.phi_sums(segs, pair_n, pair_s, phi)
+        lent = np.zeros(len(fem.x))
+        lent[pair_n] = self.inv_m[pair_n] * slave_phi
+        impulses, depth = np.zeros((len(pair_n), 3)), np.zeros(len(pair_n))
+        knc.node_pair_impulses(pair_n, pair_s, geo, lent, fem.v, self.node_body,
+                               segs["v"], segs["inv_m"] * seg_phi, segs["body"],
+                               self.friction, dt, impulses, depth)
+        shifts = GAP_CLOSURE * np.maximum(depth, 0.0)[:, None] * geo[:, 2:5]
+        self.push_nodes(segs, pair_n, pair_s, phi, impulses, shifts, dt)
+        self.last_pairs = int(np.count_nonzero(depth >= 0.0))
+
+    def find_pairs(self, segs):
+        """(local slave node index, segment index, geometry (xi, eta, n, g)) of every
+        slave node that has crossed a master face while approaching it."""
+        fem = self.elements
+        if not len(segs["key"]) or not len(self.slaves):
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
+        x = np.ascontiguousarray(segs["x"])
+        seg_lo, seg_hi = np.empty((len(x), 3)), np.empty((len(x), 3))
+        knc.segment_boxes(x, segs["depth"] + self.off_tol, seg_lo, seg_hi)
+        lo = seg_lo.min(axis=0)
+        edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
+        extent = seg_hi.max(axis=0) - lo
+        size = max(edge, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
+        dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
+        start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
+        nx = np.ascontiguousarray(fem.x[self.slaves])
+        pair_seg, geo = np.empty(len(nx), np.int64), np.empty((len(nx), 6))
+        knc.find_node_pairs(nx, np.ascontiguousarray(fem.v[self.slaves]),
+                            self.node_body[self.slaves], x, np.ascontiguousarray(segs["v"]),
+                            segs["body"], segs["key"], np.ascontiguousarray(segs["depth"]),
+                            self.touches, self.off_tol, lo, 1.0 / size, dims, start,
+                            items, pair_seg, geo)
+        found = np.flatnonzero(pair_seg >= 0)
+        return self.slaves[found], pair_seg[found], geo[found]
+
+    def phi_sums(self, segs, pair_n, pair_s, phi):
+        """Per pair its slave node's Phi, and (ns, 4) per segment node its Phi: the sum
+        of the node's weights over the approaching pairs of all ranks (1 as a slave,
+        phi_J as a master node; 0 where it has none), summed on the node's lowest
+        holder in (node id, slave node id) order."""
+        fem = self.elements
+        slave_gid = fem.node_id[pair_n]
+        gid = np.concatenate([slave_gid, segs["gid"][pair_s].ravel()])
+        key = np.concatenate([slave_gid, np.repeat(slave_gid, 4)])
+        rows = np.concatenate([np.ones(len(pair_n)), phi.ravel()])
+        if self.world.size == 1:
+            ids, total = sums_in_order(gid, key, rows)
+        else:
+            home = np.concatenate([np.full(len(pair_n), self.world.rank),
+                                   segs["holders"][pair_s][:, :, 0].ravel()])
+            ids, total = sums_at_home(self.world, gid, key, rows, home)
+        seg_phi = np.zeros(segs["gid"].shape)
+        used = np.unique(pair_s)
+        seg_phi[used] = lookup(ids, total, segs["gid"][used].ravel()).reshape(-1, 4)
+        return lookup(ids, total, slave_gid), seg_phi
+
+    def push_nodes(self, segs, pair_n, pair_s, phi, impulses, shifts, dt):
+        """The slave takes -I and the position impulse +Q, each face node J phi_J I and
+        -phi_J Q, at every holder of the node, summed there in (node id, slave node id)
+        order; the free components of velocities and positions move."""
+        fem = self.elements
+        slave_gid = fem.node_id[pair_n]
+        gid = np.concatenate([slave_gid, segs["gid"][pair_s].ravel()])
+        key = np.concatenate([slave_gid, np.repeat(slave_gid, 4)])
+        pushes = np.hstack([impulses, -shifts])
+        rows = np.concatenate([-pushes, (phi[:, :, None] * pushes[:, None, :]).reshape(-1, 6)])
+        width = max(self.holders.shape[1], segs["holders"].shape[2])
+        holders = np.concatenate([
+            pad_holders(self.holders[pair_n], width),
+            pad_holders(segs["holders"][pair_s], width).reshape(-1, width)])
+        total = totals_at_holders(self.world, gid, key, rows, holders, fem.node_id)
+        total = total.reshape(len(fem.x), 2, 3)
+        total[fem.fixed[:, None, :].repeat(2, axis=1)] = 0.0
+        total[fem.rigid_nodes()] = 0.0
+        before = fem.v.copy()
+        fem.v += total[:, 0] / fem.mass[:, None]
+        fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
+        fem.x += dt * (fem.v - before) + total[:, 1] / fem.mass[:, None]
+
+
+def lookup(ids, total, wanted):
+    """``total`` of each id of ``wanted`` in the sorted ``ids`` (0 where absent)."""
+    if not len(ids):
+        return np.zeros(len(wanted))
+    at = np.minimum(np.searchsorted(ids, wanted), len(ids) - 1)
+    return np.where(ids[at] == wanted, total[at], 0.0)
