@@ -6,6 +6,7 @@ cli_bar.yaml has a frame at t = 0.0025, half its end time, so a run cut there wi
 checkpoint of its final state, from which ``--restart --set time.end=0.005`` goes on.
 """
 import os
+import shutil
 
 import numpy as np
 import pytest
@@ -29,6 +30,14 @@ def uninterrupted(tmp_path_factory):
 
 def cut_run(out, ranks=1):
     run_ok([BAR, "--out", out, "--quiet", "--set", f"time.end={BAR_HALF_END}"], ranks)
+
+
+@pytest.fixture(scope="module")
+def cut_on_one_rank(tmp_path_factory):
+    """A run cut at t = BAR_HALF_END on 1 rank; the tests restart copies of it."""
+    out = tmp_path_factory.mktemp("restart") / "cut"
+    cut_run(out)
+    return out
 
 
 def restart(out, ranks=1, end=END):
@@ -56,9 +65,10 @@ def assert_continues(out, full, rtol):
     assert frames[-1][1] == frame_list(full)[-1][1] == 48
 
 
-def test_restart_after_a_cut_run_matches_the_uninterrupted_run(tmp_path, uninterrupted):
+def test_restart_after_a_cut_run_matches_the_uninterrupted_run(tmp_path, uninterrupted,
+                                                               cut_on_one_rank):
     out = tmp_path / "out"
-    cut_run(out)
+    shutil.copytree(cut_on_one_rank, out)
     assert latest_checkpoint(out).endswith("checkpoint_000024.h5"), os.listdir(out)
     restart(out)
     assert_continues(out, uninterrupted, rtol=1e-12)
@@ -70,9 +80,10 @@ def test_restart_after_a_cut_run_matches_the_uninterrupted_run(tmp_path, uninter
 
 def test_restart_after_a_crash_matches_the_uninterrupted_run(tmp_path, uninterrupted):
     """A run killed after step 40: its checkpoint of step 48 is gone, and history.csv and
-    particles.h5 hold rows and a frame written after the checkpoint of step 40."""
+    particles.h5 hold rows and a frame written after the checkpoint of step 40 (a copy
+    of the uninterrupted run's directory is what such a run leaves)."""
     out = tmp_path / "out"
-    run_ok([BAR, "--out", out, "--quiet"])
+    shutil.copytree(uninterrupted, out)
     assert [step for step, _ in list_checkpoints(out)] == [40, 48]
     os.remove(latest_checkpoint(out))
     (out / "summary.json").unlink()
@@ -83,9 +94,13 @@ def test_restart_after_a_crash_matches_the_uninterrupted_run(tmp_path, uninterru
 
 
 @pytest.mark.parametrize("before, after", [(1, 2), (2, 1)])
-def test_restart_on_another_number_of_ranks(tmp_path, uninterrupted, before, after):
+def test_restart_on_another_number_of_ranks(tmp_path, uninterrupted, cut_on_one_rank,
+                                            before, after):
     out = tmp_path / "out"
-    cut_run(out, ranks=before)
+    if before == 1:
+        shutil.copytree(cut_on_one_rank, out)
+    else:
+        cut_run(out, ranks=before)
     restart(out, ranks=after)
     assert_continues(out, uninterrupted, rtol=1e-12)
     summary = read_summary(out)
@@ -94,7 +109,7 @@ def test_restart_on_another_number_of_ranks(tmp_path, uninterrupted, before, aft
 
 def test_restart_of_a_finished_run_changes_nothing(tmp_path, uninterrupted):
     out = tmp_path / "out"
-    run_ok([BAR, "--out", out, "--quiet"])
+    shutil.copytree(uninterrupted, out)
     before = read_history(out)[1]
     restart(out)
     assert np.array_equal(read_history(out)[1], before)
@@ -110,9 +125,9 @@ def test_restart_needs_a_checkpoint(tmp_path):
     assert pmpm_lines(done.stderr) == [f"pmpm: error: --restart: no checkpoint in '{out}'"]
 
 
-def test_restart_with_an_earlier_end_time_is_refused(tmp_path, uninterrupted):
+def test_restart_with_an_earlier_end_time_is_refused(tmp_path, cut_on_one_rank):
     out = tmp_path / "out"
-    cut_run(out)
+    shutil.copytree(cut_on_one_rank, out)
     done = pmpm([BAR, "--out", out, "--restart", "--set", "time.end=0.001",
                  "--set", "output.times=[]"])
     assert done.returncode == 2, done.stderr
@@ -121,9 +136,15 @@ def test_restart_with_an_earlier_end_time_is_refused(tmp_path, uninterrupted):
 
 
 #: a run long enough (about 6,500 steps, some 6 s warm) to be signalled in its loop:
-#: mpirun takes about 2 s to pass a signal on, and 1.5 periods (1,200 steps) could end first
+#: mpirun takes about 2 s to pass a signal on, and 1.5 periods (1,200 steps) could end first.
+#: One frame, at the end, so that no frame time clips a step before the end: a run with
+#: another end time takes the same steps up to there.
 LONG = [os.path.join(os.path.dirname(BAR), "..", "..", "runs", "vibrating_bar.yaml"),
-        "--quiet", "--set", "params.periods=8", "--set", "output.energy_warning=0"]
+        "--quiet", "--set", "params.periods=8", "--set", "output.energy_warning=0",
+        "--set", "output.frames=1"]
+#: how far (ms, some 180 steps) the restart and the uninterrupted run it is compared with
+#: go past the signalled run's checkpoint; neither need run LONG's 8 periods
+PAST_CHECKPOINT = 0.02
 
 
 def signal_run(out, ranks, target):
@@ -153,15 +174,22 @@ def signal_run(out, ranks, target):
     return subprocess.CompletedProcess(run.args, run.returncode, stdout, stderr)
 
 
+def checkpoint_time(out):
+    """The simulated time of the newest checkpoint in ``out``."""
+    import json
+    import h5py
+    with h5py.File(latest_checkpoint(str(out)), "r") as f:
+        return json.loads(f.attrs["scalars"])["time"]
+
+
 @pytest.mark.parametrize("ranks, target", [(1, "ranks"), (2, "mpirun"), (2, "ranks")])
 def test_sigterm_leaves_a_checkpoint_and_the_restart_ends_as_the_uninterrupted_run(
         tmp_path, ranks, target):
     """Issue 27: a scheduler's SIGTERM (to mpirun, or to each rank as srun does) makes
     every rank finish its step, write a checkpoint and stop with one line; the ranks
     exit 3 (mpirun, signalled itself, reports 1); --restart ends where the run that
-    was not interrupted does."""
-    full = tmp_path / "full"
-    run_ok([*LONG[:1], "--out", full, *LONG[1:]], ranks)
+    was not interrupted does (both end PAST_CHECKPOINT after the checkpoint: a restart
+    may move the end time, and LONG's steps do not depend on it)."""
     out = tmp_path / "out"
     done = signal_run(out, ranks, target)
     lines = pmpm_lines(done.stderr)
@@ -171,7 +199,10 @@ def test_sigterm_leaves_a_checkpoint_and_the_restart_ends_as_the_uninterrupted_r
     step = int(lines[0].split("after step ")[1].split()[0])
     assert latest_checkpoint(str(out)).endswith(f"checkpoint_{step:06d}.h5")
     assert not (out / "summary.json").exists() and not (out / "pmpm.lock").exists()
+    end = f"time.end={checkpoint_time(out) + PAST_CHECKPOINT!r}"
+    full = tmp_path / "full"
+    run_ok([*LONG[:1], "--out", full, *LONG[1:], "--set", end], ranks)
     assert 0 < step < read_summary(str(full))["n_steps"]
-    run_ok([*LONG[:1], "--out", out, *LONG[1:], "--restart"], ranks)
+    run_ok([*LONG[:1], "--out", out, *LONG[1:], "--restart", "--set", end], ranks)
     assert_same_state(frame(full), frame(out), 1e-12)
     assert read_summary(str(out))["n_steps"] == read_summary(str(full))["n_steps"]
