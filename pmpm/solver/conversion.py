@@ -138,7 +138,7 @@ class Conversion:
     def particles_of(self, converted):
         """The particle columns of the elements ``converted`` (local indices)."""
         fem = self.elements
-        parts = []
+        parts = [{name: empty_column(name, 0) for name in COLUMNS}]   # none here
         for n in np.unique(self.rules.divisions[fem.body[converted]]):
             group = converted[self.rules.divisions[fem.body[converted]] == n]
             parts.append(self.particles_of_group(group, int(n)))

@@ -1,0 +1,27 @@
+"""pytest-mpi (2 or more ranks): the coarse FEM perforation (tests/test_ogive_plate_fem.py)
+on N ranks gives the 1-rank answer to round-off through node-to-surface contact between
+the rod and the plate, the plate's conversions (on both ranks: the slab plane runs
+through the impact) and the particles' surface contact with the rod.
+Run with: mpirun -n 2 python -m pytest --with-mpi tests/test_ogive_plate_fem_mpi.py"""
+import numpy as np
+import pytest
+
+from test_conversion_mpi import comm_world, state
+from test_ogive_plate_fem import run, simulation
+
+
+@pytest.mark.mpi(min_size=2)
+def test_n_ranks_give_the_one_rank_answer_through_the_perforation():
+    world = comm_world()
+    overrides = ["decomposition.axis=x"]
+    sims = {"n": simulation(overrides, world), "one": simulation(overrides)}
+    for sim in sims.values():
+        run(sim, 0.025)
+    assert sims["n"].conversion.converted == sims["one"].conversion.converted > 0
+    for n_rows, one_rows in zip(state(sims["n"], world), state(sims["one"], None)):
+        assert len(n_rows[0]) == len(one_rows[0]) > 0
+        assert (n_rows[0] == one_rows[0]).all()
+        for a, b in zip(n_rows[1:], one_rows[1:]):
+            assert np.abs(a - b).max() <= 1e-10 * max(np.abs(b).max(), 1.0)
+    born = world.allgather(int(sims["n"].particles.n))
+    assert min(born) > 0                      # conversions on every rank
