@@ -88,6 +88,7 @@ class FemBodies:
         self.load_vectors = np.zeros((1, 3))
         self.materials = BodyMaterials(table.codes, table.params, table.rigid)
         self.speed, self.fault = 0.0, None
+        self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
         self.faces = constrained_faces(config.grid)
         self.box = (np.asarray(config.grid.min, np.float64),
                     np.asarray(config.grid.max, np.float64))
@@ -285,12 +286,15 @@ class FemBodies:
 
     def rigid_nodes(self):
         """The nodes of rigid FEM bodies (material ``rigid``): they move with their
-        initial velocity, as rigid particle bodies do."""
+        initial velocity, as rigid particle bodies do, or in the axes ``rigid.free``
+        names with their body's velocity (pmpm.solver.rigid_motion)."""
         return self.materials.rigid[self.node_body]
 
     def integrate(self, dt):
         advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
         self.hold_at_faces(dt)
+        if self.rigid_motion is not None:          # free rigid bodies: gravity, one V each
+            self.rigid_motion.integrate(self, dt)
 
     def hold_at_faces(self, dt):
         """The grid faces' conditions on every node but a rigid body's (module function)."""
