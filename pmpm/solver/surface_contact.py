@@ -170,14 +170,16 @@ class SurfaceContact(Coupling):
         phi = shapes(geo[:, 0], geo[:, 1])
         p = self.points.particles
         v_c = np.einsum("kj,kjd->kd", phi, segs["v"][pair_s])
-        approach = np.einsum("kd,kd->k", p.v[pair_p] - v_c, geo[:, 2:5]) < 0.0
+        closing = -np.einsum("kd,kd->k", p.v[pair_p] - v_c, geo[:, 2:5])
+        approach = closing > 0.0
         pair_p, pair_s, geo, phi = pair_p[approach], pair_s[approach], geo[approach], \
             phi[approach]
         lent_inv_m = segs["inv_m"] * self.phi_sums(segs, pair_p, pair_s, phi)
         impulses = np.zeros((len(pair_p), 3))
         rigid, bodies = self.elements.rigid_motion, segs["body"][pair_s]
         if rigid is not None:       # free rigid faces lend a share of their body's mass
-            lent = rigid.lent_inverse_mass(bodies, geo[:, 2:5], lent_inv_m[pair_s])
+            lent = rigid.lent_inverse_mass(bodies, geo[:, 2:5], lent_inv_m[pair_s],
+                                           p.mass[pair_p] * closing[approach])
             ksc.pair_impulses(pair_p, np.arange(len(pair_p)), geo, p.mass, p.v,
                               p.body.astype(np.int64), segs["v"][pair_s], lent, bodies,
                               self.friction, impulses)
