@@ -6,6 +6,7 @@ cost).
 
     python scripts/wedge_entry.py --out results/wedge_entry
     python scripts/wedge_entry.py --variants icfemp_R1.6 --end 10       # one short run
+    python scripts/wedge_entry.py --reuse       # tables and figures of the runs in OUT
 
 Writes OUT/<variant>/ (each run), OUT/table.md, OUT/figures.json, OUT/velocity.png,
 OUT/water_25ms.png.
@@ -25,7 +26,7 @@ import numpy as np
 
 from _common import pyplot, run_case, save_figure, save_json, write_lines
 from pmpm.post import fsi
-from pmpm.post.frames import frame_times, read_frame
+from pmpm.post.frames import frame_times, read_frame, read_summary
 
 CASE = "runs/wedge_entry.yaml"
 WATER = 1                                 # body id of the water (second body)
@@ -54,13 +55,19 @@ def wedge_velocity(out):
 def run_variant(name, args):
     out = os.path.join(args.out, name)
     sets = VARIANTS[name] + [f"time.end={args.end}", f"params.ppc={args.ppc}"] + args.set
-    summary = run_case(CASE, out, ranks=args.ranks, sets=sets)
+    done = os.path.join(out, "summary.json")
+    if args.reuse and os.path.exists(done):
+        summary = read_summary(out)
+    else:
+        summary = run_case(CASE, out, ranks=args.ranks, sets=sets)
     t, v = wedge_velocity(out)
-    inside = [fsi.particles_inside(out, WATER, index=i)[1]
-              for i in range(len(frame_times(out)))]
+    frames = range(len(frame_times(out)))
+    inside = [fsi.particles_inside(out, WATER, index=i)[1] for i in frames]
+    margin = 20.0 / args.ppc / 4                  # a quarter of the particle spacing
+    deep = [fsi.particles_inside(out, WATER, margin=margin, index=i)[1] for i in frames]
     probes = {f"{p:g}": float(-np.interp(p, t, v)) for p in PROBES if p <= t[-1]}
     return {"name": name, "out": out, "t": t, "v": -v, "probes": probes,
-            "inside": inside, "frame_times": list(frame_times(out)),
+            "inside": inside, "deep": deep, "frame_times": list(frame_times(out)),
             "steps": summary["n_steps"], "wall": summary["wall_s"],
             "elements": summary["bodies"]["wedge"]["n_elements"],
             "particles": summary["n_particles"]["initial"],
@@ -83,14 +90,15 @@ def table(rows):
     lines = [f"Von Karman's added-mass estimate once the chines are wet: {estimate:.2f} m/s.",
              "",
              "| variant | elements | v at 10 ms | v at 17 ms | v at 25 ms | (v25 - est.)/est. "
-             "| water centres inside the wedge (most in a frame) | steps | wall (s) |",
+             "| water centres inside the wedge (most in a frame: any depth, deeper than 1/4 "
+             "spacing) | steps | wall (s) |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         v = [r["probes"].get(f"{p:g}") for p in PROBES]
         text = [f"{x:.3f}" if x is not None else "-" for x in v]
         off = f"{(v[2] - estimate) / estimate:+.1%}" if v[2] is not None else "-"
         lines.append(f"| {r['name']} | {r['elements']} | {' | '.join(text)} | {off} | "
-                     f"{max(r['inside'])} | {r['steps']} | {r['wall']:.0f} |")
+                     f"{max(r['inside'])}, {max(r['deep'])} | {r['steps']} | {r['wall']:.0f} |")
     for prefix in ("icfemp", "cfemp"):
         s = spread(rows, prefix)
         if s:
@@ -143,6 +151,7 @@ def figures(rows):
     for r in rows:
         data["variants"][r["name"]] = {
             "velocity": r["probes"], "inside_per_frame": r["inside"],
+            "deeper_than_quarter_spacing_per_frame": r["deep"],
             "frame_times": r["frame_times"], "elements": r["elements"],
             "particles": r["particles"], "steps": r["steps"], "wall_s": r["wall"],
             "lost": r["lost"]}
@@ -159,6 +168,8 @@ def main():
     parser.add_argument("--end", type=float, default=35.0, help="end time (ms)")
     parser.add_argument("--set", action="append", default=[], help="passed to pmpm")
     parser.add_argument("--ranks", type=int, default=1)
+    parser.add_argument("--reuse", action="store_true",
+                        help="read a variant's finished run in OUT instead of running it")
     args = parser.parse_args()
     rows = [run_variant(name, args) for name in args.variants]
     write_lines(os.path.join(args.out, "table.md"), table(rows), echo=True)

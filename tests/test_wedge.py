@@ -1,13 +1,13 @@
 """The falling wedge (runs/wedge_entry.yaml, seed 004 Sec. 4.4), coarse and short: 40 mm
 cells, 2 particles per cell per direction (20 mm spacing, 10,000 water particles), R = 3.6
-(the wedge's 2 blocks of 3 x 3 elements), to 12 ms.
+(the wedge's 2 blocks of 2 x 2 elements of 130 mm), to 12 ms.
 
 * ICFEMP: the free rigid wedge (rigid.free: [y]) slows from 6.15 m/s as the water takes
   its momentum, and no water particle's centre gets inside the wedge.
 * Momentum accounting: with gravity off and the pressure wave of the entry (50 m/s)
   not yet at the tank's floor and walls (1 m away: 20 ms), nothing outside the wedge
   and the water pushes, so the y momentum of the two stays the initial one.
-* CFEMP (grid coupling) slows the wedge too.
+* CFEMP (grid coupling) slows the wedge too, and lets water in.
 * On 2 ranks (pytest-mpi) the wedge's velocity and the water are the 1-rank answer.
 Run the MPI part with: mpirun -n 2 python -m pytest --with-mpi -m mpi tests/test_wedge.py
 """
@@ -22,6 +22,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 CASE = os.path.join(os.path.dirname(HERE), "runs", "wedge_entry.yaml")
 COARSE = ["params.cell=40.0", "params.ppc=2", "params.R=3.6"]
 END = 12.0                      # ms
+SPACING = 20.0                  # mm, the coarse water's particle spacing
 GRID = ["contact.coupling=grid", "params.method=1"]
 
 
@@ -48,46 +49,60 @@ def momentum_y(sim, world=None):
     return world.sum(local) if world else local
 
 
-def water_inside(sim):
-    """Water particle centres inside the wedge's elements (its x-y section)."""
+def water_inside(sim, margin=0.0):
+    """Water particle centres deeper than ``margin`` inside the wedge's elements (its
+    x-y section)."""
     fem, p = sim.elements, sim.particles
     quads = fsi.element_quads(fem.x, fem.hexes)
-    return int(fsi.inside_quads(p.x[p.body == 1, :2], quads).sum())
+    return int(fsi.inside_quads(p.x[p.body == 1, :2], quads, margin).sum())
 
 
 @pytest.fixture(scope="module")
 def surface_run():
     sim = simulation()
     inside = []
-    run(sim, END, every=lambda s: inside.append(water_inside(s)))
+    run(sim, END, every=lambda s: inside.append(water_inside(s, SPACING / 4)))
     return sim, inside
 
 
 def test_the_wedge_slows_and_keeps_the_water_out(surface_run):
-    """From 6.15 m/s plus gravity's 0.12 m/s to measured 5.1 m/s by 12 ms (the
-    full-resolution run: docs/validation/wedge_entry.md)."""
+    """From 6.15 m/s (gravity adds 0.12 m/s by 12 ms) to 5.85 m/s (measured; the
+    full-resolution run, 20 mm cells and R = 1.6, gives 5.83 m/s at 12 ms:
+    docs/validation/wedge_entry.md); no water particle centre gets deeper than a quarter
+    of the spacing into the wedge (centres a fraction of a millimetre inside are the
+    contact's own tolerance: it closes half of such a depth a step); the wedge only
+    translates along y."""
     sim, inside = surface_run
-    assert 4.5 < wedge_speed(sim) < 5.8
+    assert 5.6 < wedge_speed(sim) < 5.95
     assert max(inside) == 0
     assert (sim.elements.v[:, [0, 2]] == 0).all()
 
 
 def test_the_water_takes_the_momentum_the_wedge_loses():
-    """Gravity off: wedge + water keep their y momentum (measured to 1e-13 of the
-    wedge's; the wedge loses 15 % of its own)."""
-    sim = simulation(["params.g=0.0"])
+    """Gravity off: wedge + water keep their y momentum (measured to 2e-13 of the
+    wedge's; the wedge loses 6.8 % of its own), in a tank twice as wide and deep, so
+    that the entry's pressure wave is far from its floor and walls: in the 2 x 1 m
+    tank the explicit scheme's numerical precursor of that wave (it reaches further
+    than c t, ever weaker) already meets the floor, and the floor's slip condition
+    took 1e-9 of the wedge's momentum by 8 ms and 6e-7 by 14 ms, doubling each step."""
+    sim = simulation(["params.g=0.0", "params.width=4000.0", "params.depth=2000.0"])
     start = momentum_y(sim)
     wedge0 = sim.elements.mass[sim.elements.owned].sum() * wedge_speed(sim)
     run(sim, END)
     lost = wedge0 - sim.elements.mass[sim.elements.owned].sum() * wedge_speed(sim)
-    assert lost > 0.1 * wedge0
-    assert abs(momentum_y(sim) - start) < 1e-9 * wedge0
+    assert lost > 0.05 * wedge0
+    assert abs(momentum_y(sim) - start) < 1e-11 * wedge0
 
 
-def test_grid_coupling_slows_the_wedge_too():
+def test_grid_coupling_slows_the_wedge_and_leaks():
+    """CFEMP at R = 3.6 (elements of 3.2 cells): the wedge slows (measured 5.71 m/s at
+    12 ms), but water gets in between the FE nodes (measured 32 centres deeper than a
+    quarter spacing), the weakness seed 004 Sec. 3 names (Fig. 15)."""
     sim = simulation(GRID)
-    run(sim, END)
-    assert 4.5 < wedge_speed(sim) < 5.9
+    inside = []
+    run(sim, END, every=lambda s: inside.append(water_inside(s, SPACING / 4)))
+    assert 5.5 < wedge_speed(sim) < 5.95
+    assert max(inside) > 0
 
 
 @pytest.mark.mpi(min_size=2)
@@ -110,7 +125,8 @@ def test_n_ranks_give_the_one_rank_answer(coupling):
 @pytest.mark.parametrize("ratio, elements", [(1.6, 128), (3.6, 32), (14.4, 2)])
 def test_the_prism_mesh_is_the_wedge_section(ratio, elements):
     """The wedge's prism (two blocks, n x n elements each, one layer) has the section's
-    area times the slab's thickness as its volume, and its nodes the V's shape."""
+    area times the slab's thickness as its volume; its bottom nodes lie on the V's two
+    sides, n elements along each, and no node below them."""
     from pmpm.case.hexmesh import hex_mesh
     from pmpm.case.loader import load_config
     from pmpm.fem.hexahedron import element_volumes
@@ -120,9 +136,10 @@ def test_the_prism_mesh_is_the_wedge_section(ratio, elements):
     element_volumes(points, hexes, volumes)
     assert len(hexes) == elements
     assert volumes.sum() == pytest.approx(config.params["area"] * 20.0, rel=1e-12)
-    below = points[:, 1] < 1000.0 + config.params["rise"] - 1e-9
-    rise = np.abs(points[below, 0] - 1000.0) * np.tan(np.pi / 6)
-    assert np.abs(points[below, 1] - 1000.0 - rise).max() < 1e-9    # on the V's sides
+    above_v = points[:, 1] - 1000.0 - np.abs(points[:, 0] - 1000.0) * np.tan(np.pi / 6)
+    n = {128: 8, 32: 4, 2: 1}[elements]
+    assert above_v.min() > -1e-9                 # no node below the V's sides
+    assert np.count_nonzero(np.abs(above_v) < 1e-9) == 2 * (2 * n + 1)   # n on each side
 
 
 def test_a_prism_holds_the_points_of_its_section():
