@@ -149,7 +149,7 @@ def test_a_rigid_fem_body_keeps_its_velocity(tmp_path):
 @pytest.mark.parametrize("geometry, key, words", [
     ({"type": "ogive", "tip": [0, 0, 0], "direction": [0, 0, 1], "length": 8,
       "diameter": 2, "crh": 3}, "bodies[0].geometry.type",
-     "an FEM body is made from a box, cylinder, sphere or mesh for now, not a ogive"),
+     "an FEM body is made from a box, cylinder, sphere, prism or mesh for now, not a ogive"),
     ({"type": "mesh", "file": "tets.vtu"}, "bodies[0].geometry.file",
      "no hexahedron cells"),
     ({"type": "mesh", "file": "inverted.vtu"}, "bodies[0].geometry.file",
