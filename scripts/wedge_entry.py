@@ -140,7 +140,7 @@ def plot_velocity(plt, rows, path):
                 label=f"momentum, {name} (with gravity)")
     ax.set_xlabel("t (ms)")
     ax.set_ylabel("wedge velocity, down (m/s)")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="lower left")
     ax.grid(alpha=0.3)
     save_figure(fig, path)
 
