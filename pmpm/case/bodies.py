@@ -11,11 +11,13 @@ from .errors import join
 from .fem import FEM, METHOD_DOC, METHODS, fem_mesh_or_none
 from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, FieldNumber,
                      FieldVector, Tagged, at_least, choice, defaults_of, greater,
-                     has_invalid, integer,
+                     has_invalid, integer, list_of,
                      valid, mapping, number, text, vector)
 from .fill import fill_geometry
 from .mesh import MeshReadError
-from .shapes import AXES, make_shape, nose_length, reference_point, rotation_matrix
+from .rigid import RIGID
+from .shapes import (AXES, make_shape, nose_length, quad_turns, reference_point,
+                     rotation_matrix)
 
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -57,6 +59,18 @@ GEOMETRIES = {
         "scale": Field(number(greater(0)), 1.0, "1",
                        "the mesh's points x are placed at scale * x + translate"),
         "translate": point("where the mesh's origin lands", [0.0, 0.0, 0.0])},
+    "prism": {
+        "section": Field(list_of(vector(2), 3, "point"), unit="mm",
+                         doc="the section's points [a, b]: (x, y) for a prism along z, "
+                             "(z, x) along y, (y, z) along x"),
+        "blocks": Field(list_of(list_of(integer(at_least(0)), 4, "index"), 1, "block"),
+                        doc="the section as convex quadrilaterals, each 4 indices of "
+                            "section points counter-clockwise in (a, b), neighbours "
+                            "sharing whole edges (an FEM mesh cuts every block into the "
+                            "same n x n elements)"),
+        "axis": Field(choice(AXES, "axis"), doc="the axis the section is extruded along"),
+        "base": Field(number(), unit="mm", doc="where along the axis the prism begins"),
+        "length": size("length along the axis")},
 }
 ROTATE = {
     "axis": Field(vector(nonzero=True), doc="the rotation axis"),
@@ -96,6 +110,9 @@ GEOMETRY_DOCS = {
              "the tip is given",
     "mesh": "the lattice points inside the tetrahedra and hexahedra of a volume mesh "
             "(.msh, .vtu, .vtk, .inp, .med, ...); reference point: translate",
+    "prism": "a section made of convex quadrilateral blocks extruded along x, y or z "
+             "(a wedge's section, a plate's profile); reference point: the first section "
+             "point on the base plane",
 }
 ROTATION = Field(mapping(ROTATE), OMIT, doc="turn the body, filled in its own frame, about "
                                             "an axis (below)")
@@ -118,6 +135,9 @@ BODY = mapping({
     "method": Field(choice(METHODS, "body method"), "particles", doc=METHOD_DOC),
     "fem": Field(mapping(FEM), defaults_of(FEM),
                  doc="the elements of a `method: fem` body (ignored for particles)"),
+    "rigid": Field(mapping(RIGID), defaults_of(RIGID),
+                   doc="the motion of a body of a `rigid` material (ignored for others; "
+                       "a free axis of another body is refused)"),
 })
 
 
@@ -155,8 +175,28 @@ def _check_ogive(g, path, problems):
     g["direction"] = [c / norm for c in g["direction"]]
 
 
+def _check_prism(g, path, problems):
+    """Every block names existing section points and is convex and counter-clockwise."""
+    if not valid(g, "section", "blocks"):
+        return
+    points = np.asarray(g["section"], float)
+    for k, block in enumerate(g["blocks"]):
+        where = join(join(path, "blocks"), k)
+        if len(block) != 4:
+            problems.add(where, f"a block is 4 section points, not {len(block)}")
+            g["blocks"] = INVALID
+        elif max(block) >= len(points):
+            problems.add(where, f"index {max(block)} names no point: the section has "
+                         f"{len(points)}")
+            g["blocks"] = INVALID
+        elif not (quad_turns(points[block]) > 0).all():
+            problems.add(where, "not a convex quadrilateral counter-clockwise in the "
+                         "section's (a, b): reorder or split it")
+            g["blocks"] = INVALID
+
+
 CHECKS = {"box": check_min_below_max, "cylinder": _check_cylinder, "sphere": lambda *a: None,
-          "ogive": _check_ogive, "mesh": lambda *a: None}
+          "ogive": _check_ogive, "mesh": lambda *a: None, "prism": _check_prism}
 
 
 def check_bodies_in_grid(bodies, grid, case_dir, problems):

@@ -257,6 +257,7 @@ class BodyConfig:
     temperature: float | str | None
     method: str
     fem: ReadOnlyDict
+    rigid: ReadOnlyDict
 
 
 @mirrors(TOP_LEVEL, case="the whole validated case, read-only (``thawed(config.case)`` is "

@@ -10,14 +10,14 @@ from .errors import join, unknown_name
 from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, greater, has_invalid,
                      integer, list_of, mapping, number, text, valid, vector)
 from .hexmesh import (InvertedElementError, MeshDefectError, MixedMeshError, box_counts,
-                      hex_mesh, ogive_counts, read_node_sets)
+                      hex_mesh, ogive_counts, prism_divisions, read_node_sets)
 from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
 HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
 #: the largest hourglass coefficient a case may give (pmpm.fem.stability)
 MAX_HOURGLASS = 0.5
-FEM_GEOMETRIES = ("box", "cylinder", "sphere", "ogive", "mesh")
+FEM_GEOMETRIES = ("box", "cylinder", "sphere", "ogive", "prism", "mesh")
 AXIS_NAMES = ("x", "y", "z")
 CONSTRAINT = {
     "region": Field(mapping({"min": Field(vector(), unit="mm", doc="lower corner"),
@@ -82,10 +82,11 @@ FEM = {
                              "nodes on a face take)"),
 }
 METHOD_DOC = ("`particles`: the body is filled with material points; `fem`: it is a mesh "
-              "of 8-node hexahedra (a box, cylinder, sphere, ogive or mesh file) advanced by explicit central "
+              "of 8-node hexahedra (a box, cylinder, sphere, ogive, prism or mesh file) advanced by explicit central "
               "differences with lumped masses, one-point integration and hourglass "
               "control (seed 004 Sec. 2.3); over MPI an element belongs to the rank whose slab "
-              "holds its centroid; with a `rigid` material it moves with its velocity. FEM "
+              "holds its centroid; with a `rigid` material it moves with its velocity (in the axes "
+              "`rigid.free` names, under the contact impulses and gravity). FEM "
               "bodies feel gravity, loads and the grid's face conditions (a node on a fixed, slip "
               "or symmetry face takes that condition) and meet particle bodies as "
               "contact.coupling says: `surface` (ICFEMP, seed 004 Sec. 3): the particles are "
@@ -137,7 +138,7 @@ def check_fem_geometry(body, case_dir, check_geometry, path, problems):
         return
     if geometry["type"] not in FEM_GEOMETRIES:
         problems.add(join(join(path, "geometry"), "type"),
-                     f"an FEM body is made from a box, cylinder, sphere, ogive or mesh, "
+                     f"an FEM body is made from a box, cylinder, sphere, ogive, prism or mesh, "
                      f"not a {geometry['type']} (mesh it and give the file)")
         return
     if not valid(body["fem"], "element_size") or too_many_elements(body, path, problems):
@@ -201,6 +202,10 @@ def element_count(geometry, size):
                                  .astype(np.float64)))
         if kind == "sphere":
             return float(_across(geometry["radius"], size) ** 3)
+        if kind == "prism":
+            n = prism_divisions(geometry["section"], geometry["blocks"], size)
+            layers = max(np.rint(np.float64(geometry["length"]) / size), 1.0)
+            return float(len(geometry["blocks"]) * n * n * layers)
         if kind == "cylinder":
             layers = max(np.rint(np.float64(geometry["length"]) / size), 1.0)
             inner = geometry.get("inner_radius", 0.0)

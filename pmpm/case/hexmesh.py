@@ -1,6 +1,6 @@
 """Hexahedral meshes of FEM bodies: a structured mesh of a box, a cylinder (O-grid; a tube
-in polar blocks), a sphere (cubed sphere) or an ogive (a swept O-grid with a small flat
-tip), or the hexahedra of a mesh file meshio
+in polar blocks), a sphere (cubed sphere), an ogive (a swept O-grid with a small flat
+tip) or a prism (its section's blocks), or the hexahedra of a mesh file meshio
 reads; then the body's ``rotate``. Node order is VTK's (pmpm.fem.hexahedron).
 
 Plain numpy: an element is refused when its Jacobian at the centre is not positive
@@ -229,6 +229,40 @@ def axis_frame(axis):
     return np.stack([e1, np.cross(axis, e1), axis], axis=1)
 
 
+def prism_divisions(section, blocks, element_size):
+    """Elements along each block edge of a prism's section: round(mean block edge /
+    element_size), at least 1 (one count for all, so neighbours' edges match)."""
+    corners = np.asarray(section, float)[np.asarray(blocks)]
+    edges = np.linalg.norm(np.roll(corners, -1, axis=1) - corners, axis=2)
+    return int(max(np.rint(edges.mean() / element_size), 1))
+
+
+def prism_mesh(geometry, element_size):
+    """(points, hexes) of a prism: each convex block of the section cut into n x n
+    bilinear elements (:func:`prism_divisions`), swept along the axis in
+    round(length / size) layers; nodes that blocks share are merged."""
+    n = prism_divisions(geometry["section"], geometry["blocks"], element_size)
+    layers = int(max(np.rint(geometry["length"] / element_size), 1))
+    section = np.asarray(geometry["section"], float)
+    parts, hexes, offset = [], [], 0
+    for block in geometry["blocks"]:
+        unit, cells = box_mesh([0.0, 0.0, 0.0], [1.0, 1.0, geometry["length"]],
+                               [n, n, layers])
+        s, t = unit[:, :1], unit[:, 1:2]
+        c = section[list(block)]
+        ab = ((1 - s) * (1 - t) * c[0] + s * (1 - t) * c[1] + s * t * c[2]
+              + (1 - s) * t * c[3])
+        parts.append(np.concatenate([ab, unit[:, 2:]], axis=1))
+        hexes.append(cells + offset)
+        offset += len(unit)
+    local, hexes = merge_coincident(np.concatenate(parts), np.concatenate(hexes))
+    a = "xyz".index(geometry["axis"])
+    points = np.empty_like(local)
+    points[:, [(a + 1) % 3, (a + 2) % 3, a]] = local
+    points[:, a] += geometry["base"]
+    return points, hexes
+
+
 def merge_coincident(points, hexes):
     """Merge nodes at the same place (a polar mesh's seam), renumbering ``hexes``."""
     keys = np.round(points / (np.abs(points).max() + 1.0), 12)
@@ -380,6 +414,8 @@ def hex_mesh(geometry, element_size, case_dir="."):
         points, hexes = cylinder_mesh(geometry["base"], geometry["axis"], geometry["radius"],
                                       geometry["length"], geometry["inner_radius"],
                                       element_size)
+    elif kind == "prism":
+        points, hexes = prism_mesh(geometry, element_size)
     else:
         points, hexes = read_hexes(os.path.join(case_dir, geometry["file"]),
                                    geometry["scale"], geometry["translate"])

@@ -15,8 +15,11 @@ AXES = {"x": 0, "y": 1, "z": 2}
 def reference_point(geometry):
     """The point a rotated lattice is anchored at and ``rotate`` turns about by default:
     box: min corner; cylinder: base centre; sphere: centre; ogive: base (or tip when only
-    the tip is given); mesh: ``translate`` (where the mesh's origin lands)."""
+    the tip is given); mesh: ``translate`` (where the mesh's origin lands); prism: its
+    section's first point on the base plane."""
     kind = geometry["type"]
+    if kind == "prism":
+        return Prism(geometry).corner().tolist()
     key = {"box": "min", "cylinder": "base", "sphere": "center", "mesh": "translate"}.get(kind)
     if key is None:
         key = "base" if "base" in geometry else "tip"
@@ -107,7 +110,65 @@ class Ogive:
         return (s >= -tol) & (s <= self.length + tol) & inside_radius
 
 
-SHAPES = {"box": Box, "cylinder": Cylinder, "sphere": Sphere, "ogive": Ogive}
+class Prism:
+    """A polygonal section, the union of convex quadrilateral ``blocks`` of the
+    ``section`` points, extruded along x, y or z from the plane ``base`` by ``length``.
+    The section's points (a, b) are the coordinates ((axis + 1) % 3, (axis + 2) % 3):
+    (x, y) for a prism along z, (z, x) along y, (y, z) along x, as for a cylinder."""
+
+    def __init__(self, g):
+        self.axis = AXES[g["axis"]]
+        self.columns = [(self.axis + 1) % 3, (self.axis + 2) % 3]
+        self.points = np.asarray(g["section"], float)
+        self.blocks = np.asarray(g["blocks"], np.int64)
+        self.base, self.length = float(g["base"]), float(g["length"])
+
+    def corner(self):
+        """The section's first point on the base plane, in 3D."""
+        out = np.zeros(3)
+        out[self.columns] = self.points[0]
+        out[self.axis] = self.base
+        return out
+
+    def bounds(self):
+        lo, hi = np.zeros(3), np.zeros(3)
+        used = self.points[np.unique(self.blocks)]
+        lo[self.columns], hi[self.columns] = used.min(axis=0), used.max(axis=0)
+        lo[self.axis], hi[self.axis] = self.base, self.base + self.length
+        return lo, hi
+
+    def contains(self, p):
+        lo, hi = self.bounds()
+        tol = TOL * np.max(hi - lo)
+        s = p[:, self.axis]
+        inside = np.zeros(len(p), bool)
+        for block in self.blocks:
+            inside |= in_convex_polygon(p[:, self.columns], self.points[block], tol)
+        return inside & (s >= self.base - tol) & (s <= self.base + self.length + tol)
+
+
+def in_convex_polygon(q, corners, tol):
+    """Which 2D points ``q`` lie in the convex polygon ``corners`` (counter-clockwise),
+    within ``tol`` of its edges."""
+    inside = np.ones(len(q), bool)
+    for k in range(len(corners)):
+        a, b = corners[k], corners[(k + 1) % len(corners)]
+        edge = b - a
+        cross = edge[0] * (q[:, 1] - a[1]) - edge[1] * (q[:, 0] - a[0])
+        inside &= cross >= -tol * np.hypot(*edge)
+    return inside
+
+
+def quad_turns(corners):
+    """The cross products of consecutive edges at each corner of a 2D quadrilateral
+    (all > 0: convex and counter-clockwise)."""
+    edges = np.roll(corners, -1, axis=0) - corners
+    nxt = np.roll(edges, -1, axis=0)
+    return edges[:, 0] * nxt[:, 1] - edges[:, 1] * nxt[:, 0]
+
+
+SHAPES = {"box": Box, "cylinder": Cylinder, "sphere": Sphere, "ogive": Ogive,
+          "prism": Prism}
 
 
 def nose_length(diameter, crh):

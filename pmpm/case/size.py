@@ -56,6 +56,11 @@ def shape_volume(geometry, tets=None):
         area = math.pi * y ** 2
         nose_volume = float(np.sum((area[1:] + area[:-1]) / 2) * (t[1] - t[0])) if nose else 0.0
         return math.pi * radius ** 2 * (geometry["length"] - nose) + nose_volume
+    if kind == "prism":
+        corners = np.asarray(geometry["section"], float)[np.asarray(geometry["blocks"])]
+        x, y = corners[..., 0], corners[..., 1]
+        area = 0.5 * np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y)
+        return float(area) * geometry["length"]
     edges = tets[:, 1:] - tets[:, :1]
     return float(np.abs(np.linalg.det(edges)).sum() / 6.0)
 

@@ -164,7 +164,7 @@ class GridContact(Coupling):
             nb = f.cnodal.shape[1]
             f.cvel = f.slot_array("cvel", 3, nb, zero=False)
             f.cnorm = f.slot_array("cnorm", 3, nb, zero=False)
-            kc.contact_start(f.slots(), s.gvel, self.pairs, self.bodies.rigid,
+            kc.contact_start(f.slots(), s.gvel, self.pairs, self.bodies.grid_rigid,
                              self.rules.method, self.m_tiny, s.nodes,
                              kc.FLAT if self.rules.releases else 0.0)
             if self.rules.releases:
@@ -178,7 +178,7 @@ class GridContact(Coupling):
             f.sum_on_shared_planes(s.block, f.cforce)
             s.reflect(f.cforce, CFORCE_KINDS, f.slot_of)
             f.cnew = f.slot_array("cnew", kc.CNEW, f.cnodal.shape[1], zero=False)
-            kc.contact_end(f.slots(), s.gvel, s.gnew, self.pairs, self.bodies.rigid,
+            kc.contact_end(f.slots(), s.gvel, s.gnew, self.pairs, self.bodies.grid_rigid,
                            self.rules.skip_separating, dt, self.m_tiny, s.nodes,
                            self.start_share)
 

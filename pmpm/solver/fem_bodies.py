@@ -90,6 +90,7 @@ class FemBodies:
         self.materials = BodyMaterials(table.codes, table.params, table.rigid)
         self.speed, self.fault = 0.0, None
         self.converted_hourglass = 0.0     # of this rank's elements that became particles
+        self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
         self.faces = constrained_faces(config.grid)
         self.box = (np.asarray(config.grid.min, np.float64),
                     np.asarray(config.grid.max, np.float64))
@@ -326,12 +327,15 @@ class FemBodies:
 
     def rigid_nodes(self):
         """The nodes of rigid FEM bodies (material ``rigid``): they move with their
-        initial velocity, as rigid particle bodies do."""
+        initial velocity, as rigid particle bodies do, or in the axes ``rigid.free``
+        names with their body's velocity (pmpm.solver.rigid_motion)."""
         return self.materials.rigid[self.node_body]
 
     def integrate(self, dt):
         advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
         self.hold_at_faces(dt)
+        if self.rigid_motion is not None:          # free rigid bodies: gravity, one V each
+            self.rigid_motion.integrate(self, dt)
 
     def hold_at_faces(self, dt):
         """The grid faces' conditions on every node but a rigid body's (module function)."""

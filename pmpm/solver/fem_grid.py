@@ -22,7 +22,9 @@ step beside the particles:
 Method 2's start-of-step correction changes the velocities the particles' stresses use;
 the elements' stresses use the FE nodes' own velocities (the mesh is advanced before the
 grid's forces, from the nodes alone). Rigid FEM bodies go into the grid's rigid slots,
-like rigid particle bodies: they impose their velocity and take no correction.
+like rigid particle bodies: they impose their velocity and take no correction; a free
+rigid body (``rigid.free``) joins the contact with its nodes' masses and takes the sum of
+their corrections (pmpm.solver.rigid_motion).
 
 Over MPI the nodes are copies on every rank holding one of their elements. Each node is
 mapped once, by the rank whose slab holds it (the rule of particles, so that rank's
@@ -78,7 +80,7 @@ class FemGridNodes:
     def __init__(self, elements, contact, decomposition, grid, bodies, coupled, m_tiny):
         self.elements, self.contact = elements, contact
         self.decomposition, self.grid = decomposition, grid
-        self.rigid, self.coupled, self.m_tiny = bodies.rigid, np.asarray(coupled), m_tiny
+        self.rigid, self.coupled, self.m_tiny = bodies.grid_rigid, np.asarray(coupled), m_tiny
         self.world = elements.world
         self.work = Workspace()
         self.fault = None
@@ -219,6 +221,8 @@ class FemGridNodes:
         if self.lending:
             self.return_to_lenders(dv[len(self.mine):], change)
         change = sum_shared_rows(self.world, change, e.partners)
+        if e.rigid_motion is not None:    # a free rigid body takes its nodes' sum
+            e.rigid_motion.take_velocity_changes(e, change)
         e.v += change
         e.v[e.fixed] = 0.0
         e.hold_at_faces(dt)

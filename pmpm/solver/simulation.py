@@ -23,6 +23,7 @@ from .particle_bodies import ParticleBodies
 from .refine import Refiner
 from .schemes import make_scheme
 from .step import Stepper
+from .rigid_motion import RigidMotion
 from .surface_contact import SurfaceContact
 
 
@@ -35,6 +36,9 @@ class Simulation:
         self.world, self.config, self.grid = world, config, grid
         self.bodies = bodies
         self.elements = elements        # solver.fem_bodies.FemBodies, or None
+        if elements:
+            motion = RigidMotion(config, elements, world)
+            elements.rigid_motion = motion if motion.active else None
         n_total = max(world.sum(particles.n), 1)
         mean_mass = world.sum(float(particles.mass.sum())) / n_total
         if mean_mass == 0 and elements:          # FEM bodies only (they may convert)

@@ -29,7 +29,9 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
   surface_contact.pair_impulse). The particle takes -I on its velocity and dt (-I)/m_p on
   its position (the notes' option (b)); each FE node J of the face takes phi_J I on its
   velocity and dt phi_J I/m_J on its position; rigid FEM bodies and held node components
-  take nothing. Pairs are solved at once (Jacobi); so that many particles on one light
+  take nothing, but a free rigid body (``rigid.free``) takes the sum of its pairs'
+  impulses on its velocity, each pair meeting a share of the body's mass
+  (pmpm.solver.rigid_motion). Pairs are solved at once (Jacobi); so that many particles on one light
   face do not over-correct it, a node J lends pair k the share phi_J^k / Phi_J of its
   mass, Phi_J = sum_k phi_J^k over the approaching pairs (1/m_c = sum_J phi_J^k Phi_J /
   m_J; a pair alone on its nodes gets Eq. 49): a layer of particles that tiles a face and
@@ -183,15 +185,26 @@ class SurfaceContact(Coupling):
         phi = shapes(geo[:, 0], geo[:, 1])
         p = self.points.particles
         v_c = np.einsum("kj,kjd->kd", phi, segs["v"][pair_s])
-        approach = np.einsum("kd,kd->k", p.v[pair_p] - v_c, geo[:, 2:5]) < 0.0
+        closing = -np.einsum("kd,kd->k", p.v[pair_p] - v_c, geo[:, 2:5])
+        approach = closing > 0.0
         pair_p, pair_s, geo, phi = pair_p[approach], pair_s[approach], geo[approach], \
             phi[approach]
         lent_inv_m = segs["inv_m"] * self.phi_sums(segs, pair_p, pair_s, phi)
         impulses = np.zeros((len(pair_p), 3))
-        ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
-                          segs["v"], lent_inv_m, segs["body"], self.friction, impulses)
+        rigid, bodies = self.elements.rigid_motion, segs["body"][pair_s]
+        if rigid is not None:       # free rigid faces lend a share of their body's mass
+            lent = rigid.lent_inverse_mass(bodies, geo[:, 2:5], lent_inv_m[pair_s],
+                                           p.mass[pair_p] * closing[approach])
+            ksc.pair_impulses(pair_p, np.arange(len(pair_p)), geo, p.mass, p.v,
+                              p.body.astype(np.int64), segs["v"][pair_s], lent, bodies,
+                              self.friction, impulses)
+        else:
+            ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
+                              segs["v"], lent_inv_m, segs["body"], self.friction, impulses)
         self.push_particles(pair_p, geo, impulses, dt)
         self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
+        if rigid is not None:
+            rigid.take_impulses(self.elements, bodies, p.id[pair_p], impulses, dt)
         self.last_pairs = len(pair_p)
 
     def push_particles(self, pair_p, geo, impulses, dt):
