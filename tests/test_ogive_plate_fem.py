@@ -8,6 +8,8 @@ import os
 
 import numpy as np
 
+from test_conversion import run
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 CASE = os.path.join(os.path.dirname(HERE), "runs", "ogive_plate_fem.yaml")
 COARSE = ["params.cell=4", "params.plate_element=4", "params.rod_element=5.7"]
@@ -28,14 +30,6 @@ def momentum(sim):
 def rod_speed(sim):
     stats = sim.body_stats()["rod"]
     return float(np.linalg.norm(stats["velocity"]))
-
-
-def run(sim, end, every=None):
-    while sim.time < end - 1e-12:
-        dt = min(0.5 * sim.grid.h / sim.fastest_speed(), end - sim.time)
-        sim.advance(dt)
-        if every:
-            every(sim)
 
 
 def test_the_rod_enters_the_plate_keeping_momentum_through_contact_and_conversion():

@@ -17,7 +17,7 @@ approach, whichever is less), so that bodies meet where their surfaces meet.
 import numpy as np
 from numba import njit
 
-from .surface_contact import bucket_of, closest_point, face_shapes
+from .surface_contact import TIE, bucket_of, closest_point, face_shapes, nearer
 
 
 @njit(cache=True)
@@ -77,7 +77,7 @@ def find_node_pairs(nx, nv, nbody, seg_x, seg_v, seg_body, seg_key, seg_depth, t
             if relative_normal_speed(nv[n], seg_v[s], out[0], out[1], out[2:5], phi) >= 0.0:
                 continue
             dist = g * g + off * off
-            if dist < best or (dist == best and seg_key[s] < best_key):
+            if nearer(dist, seg_key[s], best, best_key, TIE * tol * tol):
                 best, best_key = dist, seg_key[s]
                 pair_seg[n] = s
                 for c in range(5):

@@ -138,6 +138,15 @@ def bucket_segments(seg_lo, seg_hi, lo, inv_size, dims):
 TIE = 1e-9
 
 
+@njit(cache=True, inline="always")
+def nearer(dist, key, best, best_key, tie):
+    """Whether a candidate at squared distance ``dist`` beats the best so far. Faces as
+    near as each other to within ``tie`` (a point on a symmetry plane of the mesh) tie,
+    and the tie goes to the smaller key: the last bits of the positions, which differ
+    between rank counts, do not pick the face."""
+    return dist < best - tie or (dist <= best + tie and key < best_key)
+
+
 @njit(cache=True)
 def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_size, dims,
                start, items, pair_seg, pair_geo):
@@ -166,11 +175,7 @@ def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_siz
             if g >= radius[p] or g <= -radius[p] or off > radius[p]:
                 continue
             dist = g * g + off * off
-            # faces as near as each other to round-off (a particle on a symmetry plane
-            # of the mesh) tie, and the tie goes to the smaller key: the last bits of
-            # the positions, which differ between rank counts, do not pick the face
-            tie = TIE * radius[p] * radius[p]
-            if dist < best - tie or (dist <= best + tie and seg_key[s] < best_key):
+            if nearer(dist, seg_key[s], best, best_key, TIE * radius[p] * radius[p]):
                 best, best_key = dist, seg_key[s]
                 pair_seg[p] = s
                 for c in range(5):

@@ -61,7 +61,7 @@ from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_orde
 from .couplings import Coupling
 from .errors import SetupError
 from .fem_grid import grid_coupled_bodies
-from .surface_contact import MAX_BUCKETS, free_face_mask, shapes
+from .surface_contact import MAX_BUCKETS, free_face_mask, joined_segments, shapes
 
 #: the share of a depth left after the impulses that a pair closes in a step, by moving
 #: the positions (not the velocities: no energy, no momentum)
@@ -193,11 +193,8 @@ class NodeContact(Coupling):
         for r, (b_lo, b_hi) in enumerate(boxes):
             going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != self.world.rank)
             packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
-        parts = [own] + exchange_objects(self.world, packages)
-        width = max(part["holders"].shape[2] for part in parts)
-        return {k: np.concatenate([pad_holders(part[k], width) if k == "holders"
-                                   else part[k] for part in parts])
-                for k in SEGMENT_FIELDS}
+        return joined_segments([own] + exchange_objects(self.world, packages),
+                               SEGMENT_FIELDS)
 
     # -- the step ---------------------------------------------------------------------
     def after_update_points(self, dt):

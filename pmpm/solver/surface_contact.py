@@ -171,12 +171,8 @@ class SurfaceContact(Coupling):
         for r in range(self.world.size):
             going = (hi >= plane[r]) & (lo <= plane[r + 1]) & (r != self.world.rank)
             packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
-        received = exchange_objects(self.world, packages)
-        parts = [own] + received
-        width = max(part["holders"].shape[2] for part in parts)
-        return {k: np.concatenate([pad_holders(part[k], width) if k == "holders"
-                                   else part[k] for part in parts])
-                for k in SEGMENT_FIELDS}
+        return joined_segments([own] + exchange_objects(self.world, packages),
+                               SEGMENT_FIELDS)
 
     # -- the step ---------------------------------------------------------------------
     def after_update_points(self, dt):
@@ -279,6 +275,14 @@ class SurfaceContact(Coupling):
         fem.v += total / fem.mass[:, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before)
+
+
+def joined_segments(parts, fields):
+    """One segment set from this rank's and the halo's (their holder lists padded to
+    the widest)."""
+    width = max(part["holders"].shape[2] for part in parts)
+    return {k: np.concatenate([pad_holders(part[k], width) if k == "holders"
+                               else part[k] for part in parts]) for k in fields}
 
 
 def approach_depth(geo):
