@@ -2,7 +2,8 @@
 # Install everything pmpm needs on a fresh Debian machine (run as root), idempotently.
 #   Debian: Open MPI and HDF5 built against it.
 #   .venv/ in the repo root: numpy, numba, mpi4py, meshio, pyyaml, pytest, pytest-mpi,
-#   h5py built from source against the parallel HDF5 (h5py.get_config().mpi is True).
+#   h5py built from source against the parallel HDF5 (h5py.get_config().mpi is True),
+#   at the versions in constraints.txt.
 # Usage: scripts/setup.sh            install only
 #        scripts/setup.sh --example  install, then run runs/taylor_bar.yaml on 2 ranks
 set -euo pipefail
@@ -25,14 +26,14 @@ if [ ! -x .venv/bin/python ]; then
 fi
 PY=.venv/bin/python
 $PY -m pip install -q --upgrade pip "setuptools>=77" wheel
-$PY -m pip install -q numpy numba mpi4py meshio pyyaml pytest pytest-mpi matplotlib
+$PY -m pip install -q -c constraints.txt numpy numba mpi4py meshio pyyaml pytest pytest-mpi matplotlib
 
 if ! $PY -c "import h5py, sys; sys.exit(0 if h5py.get_config().mpi else 1)" 2>/dev/null; then
     echo "setup: building h5py against parallel HDF5 (about 5 minutes the first time; pip caches the wheel)"
     $PY -m pip uninstall -q -y h5py 2>/dev/null || true
     $PY -m pip install -q "Cython>=3" pkgconfig
     CC=mpicc HDF5_MPI=ON HDF5_PKGCONFIG_NAME=hdf5-openmpi \
-        $PY -m pip install --no-binary=h5py --no-build-isolation h5py
+        $PY -m pip install -c constraints.txt --no-binary=h5py --no-build-isolation h5py
 fi
 $PY -c "import h5py; assert h5py.get_config().mpi, 'h5py is not built with MPI'"
 $PY -m pip install -q --no-deps -e .

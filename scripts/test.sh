@@ -8,7 +8,32 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_rmaps_base_oversubscribe=1 PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe
 export NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1
 PY=.venv/bin/python
-echo "== serial tests"
-$PY -m pytest -q --color=no "$@" tests
+# The serial tests run as one share of the test files per core, side by side (at most
+# two: the MPI tests among them take both cores); the kernels are compiled (or loaded)
+# once first. PMPM_TEST_SHARES=1 runs them in one process.
+shares=${PMPM_TEST_SHARES:-$(( $(nproc) > 1 ? 2 : 1 ))}
+run_share() {   # share i of $shares; a share that "$@" leaves empty (pytest's 5) passes
+    local rc=0
+    $PY -m pytest -q --color=no -p no:cacheprovider --shard "$1/$shares" "${@:2}" tests || rc=$?
+    [ "$rc" -eq 5 ] && rc=0
+    return "$rc"
+}
+echo "== serial tests ($shares shares of the test files side by side)"
+$PY -m pytest -q --collect-only "$@" tests > /dev/null || true
+logs=$(mktemp -d)
+pids=()
+for i in $(seq 2 "$shares"); do
+    run_share "$i" "$@" > "$logs/share$i.log" 2>&1 &
+    pids+=($!)
+done
+status=0
+run_share 1 "$@" || status=$?
+for i in $(seq 2 "$shares"); do
+    wait "${pids[$((i - 2))]}" || status=$?
+    echo "== serial tests, share $i of $shares"
+    cat "$logs/share$i.log"
+done
+rm -rf "$logs"
+[ "$status" -eq 0 ] || exit "$status"
 echo "== MPI tests on 2 ranks"
 mpirun -n 2 --oversubscribe $PY -m pytest -q --color=no --with-mpi -m mpi -p no:cacheprovider "$@" tests
