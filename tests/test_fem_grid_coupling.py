@@ -112,6 +112,12 @@ def test_particles_leak_into_an_fem_plate_of_elements_much_larger_than_a_cell(tm
      "grid only (no refinement over it yet)"),
     (["time.scheme=musl"], "time.scheme: grid coupling (CFEMP) steps with usf only, not "
                            "musl"),
+    (["time.transfer=apic", "grid.shape_functions=gimp"], "time.transfer: apic with contact.method 2 and grid coupling "
+     "(CFEMP): the FE nodes cannot take method 2's start correction the particles take, so "
+     "momentum is not conserved; use flip, contact.method 1, or contact.coupling: surface"),
+    (["time.pic=0.1"], "time.pic: 0.1 with contact.method 2 and grid coupling (CFEMP): the "
+     "FE nodes cannot take the share of method 2's start correction the particles take, so "
+     "momentum is not conserved; use pic 0, contact.method 1, or contact.coupling: surface"),
 ])
 def test_what_grid_coupling_cannot_do_yet_is_refused_naming_its_key(tmp_path, sets,
                                                                     problem):

@@ -45,8 +45,10 @@ quarter cell: 2.93). With ``gimp`` (the node has the half-width of its body) or
 ``bspline`` the gradients are continuous and the same plate gives 3.25 (gimp, method 1).
 
 FE nodes map to the coarse grid only: a refined window over a grid-coupled FEM body is
-refused at set-up, as are MUSL and an FEM body that meets some particle bodies on the
-grid and others by surface contact.
+refused at set-up, as are MUSL, contact method 2 under APIC or a PIC blend (the nodes
+cannot take the start correction the particles take: momentum would not be conserved),
+and an FEM body that meets some particle bodies on the grid and others by surface
+contact.
 """
 import numpy as np
 
@@ -251,8 +253,9 @@ def grid_coupled_bodies(rules, fem):
 
 def check_grid_coupling(config, rules, coupled, elements, world):
     """SetupError naming the key of what grid coupling cannot do yet: an FEM body on the
-    grid and on surface contact at once, MUSL, a refined window over (or following a
-    body onto) a grid-coupled FEM body. Collective (the FEM bodies' box)."""
+    grid and on surface contact at once, MUSL, method 2 under APIC or a PIC blend, a
+    refined window over (or following a body onto) a grid-coupled FEM body. Collective
+    (the FEM bodies' box)."""
     problems = []
     names = [b.name for b in config.bodies]
     particles = np.array([b.method != "fem" for b in config.bodies])
@@ -264,9 +267,30 @@ def check_grid_coupling(config, rules, coupled, elements, world):
     if config.time.scheme != "usf":
         problems.append(f"time.scheme: grid coupling (CFEMP) steps with usf only, not "
                         f"{config.time.scheme}")
+    problems += start_correction_problems(config, rules)
     problems += window_problems(config, coupled, elements, world)
     if problems:
         raise SetupError(problems)
+
+
+def start_correction_problems(config, rules):
+    """Method 2's start-of-step correction (Eq. 25) reaches the particles' velocities
+    under APIC (all of it) and a PIC blend (its share) but never the FE nodes, which take
+    the grid's change over the step alone: the bodies' momenta would then not sum to what
+    the contact keeps. Under FLIP (the default) neither takes it."""
+    if rules.method != 2:
+        return []
+    if config.time.transfer == "apic":
+        return ["time.transfer: apic with contact.method 2 and grid coupling (CFEMP): the "
+                "FE nodes cannot take method 2's start correction the particles take, so "
+                "momentum is not conserved; use flip, contact.method 1, or "
+                "contact.coupling: surface"]
+    if config.time.pic > 0:
+        return [f"time.pic: {config.time.pic} with contact.method 2 and grid coupling "
+                f"(CFEMP): the FE nodes cannot take the share of method 2's start "
+                f"correction the particles take, so momentum is not conserved; use pic 0, "
+                f"contact.method 1, or contact.coupling: surface"]
+    return []
 
 
 def pair_key(contact, name):
