@@ -28,6 +28,11 @@ PY=.venv/bin/python
 $PY -m pip install -q --upgrade pip "setuptools>=77" wheel
 $PY -m pip install -q -c constraints.txt numpy numba mpi4py meshio pyyaml pytest pytest-mpi matplotlib
 
+# pmpm's kernels for the hats and the default shape functions compile into Numba's cache
+# (a few minutes the first time, a second after) on one core while h5py builds on another
+NUMBA_NUM_THREADS=1 $PY -c "from pmpm.kernels.warmup import warm_up_defaults as w; w()" &
+compiling=$!
+
 if ! $PY -c "import h5py, sys; sys.exit(0 if h5py.get_config().mpi else 1)" 2>/dev/null; then
     echo "setup: building h5py against parallel HDF5 (about 5 minutes the first time; pip caches the wheel)"
     $PY -m pip uninstall -q -y h5py 2>/dev/null || true
@@ -37,6 +42,7 @@ if ! $PY -c "import h5py, sys; sys.exit(0 if h5py.get_config().mpi else 1)" 2>/d
 fi
 $PY -c "import h5py; assert h5py.get_config().mpi, 'h5py is not built with MPI'"
 $PY -m pip install -q --no-deps -e .
+wait "$compiling" || echo "setup: compiling the kernels ahead failed; they compile on first use"
 echo "setup: environment ready in .venv"
 
 if [ "${1:-}" = "--example" ]; then

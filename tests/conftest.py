@@ -9,9 +9,7 @@ import os
 
 import pytest
 
-from pmpm.case.schema import GRID
-from pmpm.kernels.shape import LINEAR, SHAPE_CODES
-from pmpm.kernels.warmup import warm_up
+from pmpm.kernels.warmup import warm_up_defaults
 
 #: seconds per test file on the 2-core CI machine (serial tests; refresh with
 #: ``pytest --durations=0``): only the shares' balance depends on them
@@ -35,8 +33,7 @@ def pytest_addoption(parser):
 
 
 def pytest_sessionstart(session):
-    warm_up(LINEAR)
-    warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True)
+    warm_up_defaults()
 
 
 def parse_shard(text):

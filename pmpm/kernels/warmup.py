@@ -16,6 +16,15 @@ from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, G
 N = 27   # nodes of the warm-up block
 
 
+def warm_up_defaults():
+    """Compile (or load) the step's kernels for the hats and for the default shape
+    functions with the APIC variants: what scripts/setup.sh compiles while h5py builds,
+    and the test session before its first test. Returns the seconds spent."""
+    from ..case.schema import GRID
+    from .shape import SHAPE_CODES
+    return warm_up(LINEAR) + warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True)
+
+
 def warm_up(shape_code=LINEAR, apic=False):
     """Return the seconds spent compiling or loading the kernels (for the shape functions
     ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels;
