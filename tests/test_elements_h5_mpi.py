@@ -70,7 +70,7 @@ def assert_same_frames(n_frames, one_frames):
                          ids=["converting", "not-converting"])
 def test_element_frames_on_n_ranks_are_the_one_rank_frames(mpi_tmp_path, eps_c, end):
     world = comm_world()
-    overrides = ["decomposition.axis=x", f"params.eps_c={eps_c}", f"time.end={end}"]
+    overrides = ["decomposition.axis=y", f"params.eps_c={eps_c}", f"time.end={end}"]
     many = write_run(simulation(overrides, world), mpi_tmp_path / "n.h5", world.raw, end)
     if world.is_root:                                  # the 1-rank run, on rank 0
         write_run(simulation(overrides), mpi_tmp_path / "one.h5", MPI.COMM_SELF, end)
