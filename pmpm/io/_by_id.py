@@ -30,10 +30,24 @@ def keepers(ids, bound, size):
 
 
 def _split(dest, size):
-    """(order, cuts): ``order`` groups the rows by destination, rows
-    ``order[cuts[r]:cuts[r + 1]]`` go to rank r."""
-    order = np.argsort(dest, kind="stable")
+    """(order, cuts): rows ``order[cuts[r]:cuts[r + 1]]`` go to rank r; ``order`` is a
+    slice when the rows are already grouped by destination (ids held in ascending
+    order, as FemBodies keeps them), so that no sort or copy is spent on them."""
+    grouped = bool(np.all(dest[1:] >= dest[:-1]))
+    order = slice(None) if grouped else np.argsort(dest, kind="stable")
     return order, np.searchsorted(dest[order], np.arange(size + 1))
+
+
+def _pick(order, a, b):
+    """The rows ``a:b`` of the grouping ``order`` (a slice or an index array)."""
+    return slice(a, b) if isinstance(order, slice) else order[a:b]
+
+
+def _sorted(ids):
+    """A permutation sorting ``ids``, or a slice when they already are."""
+    if np.all(ids[1:] > ids[:-1]):
+        return slice(None)
+    return np.argsort(ids, kind="stable")
 
 
 def to_keepers(comm, ids, columns, bound):
@@ -47,11 +61,11 @@ def to_keepers(comm, ids, columns, bound):
     order, cuts = _split(keepers(ids, bound, comm.size), comm.size)
     packages = []
     for a, b in zip(cuts[:-1], cuts[1:]):
-        rows = order[a:b]
+        rows = _pick(order, a, b)
         packages.append((ids[rows], {k: col[rows] for k, col in columns.items()}))
     received = comm.alltoall(packages)
     kept = np.concatenate([p[0] for p in received])
-    rank = np.argsort(kept, kind="stable")
+    rank = _sorted(kept)
     return kept[rank], {k: np.concatenate([p[1][k] for p in received])[rank]
                         for k in columns}
 
@@ -72,7 +86,7 @@ def rows_of(comm, query, kept, first, bound):
         On every rank alike, naming an id that no rank keeps.
     """
     order, cuts = _split(keepers(query, bound, comm.size), comm.size)
-    asked = comm.alltoall([query[order[a:b]] for a, b in zip(cuts[:-1], cuts[1:])])
+    asked = comm.alltoall([query[_pick(order, a, b)] for a, b in zip(cuts[:-1], cuts[1:])])
     answers = []
     for ids in asked:
         at = np.minimum(np.searchsorted(kept, ids), max(len(kept) - 1, 0))

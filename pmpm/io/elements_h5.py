@@ -47,13 +47,21 @@ def laid_out(comm, nodes, elements):
     (collective)."""
     node_bound = B.id_bound(comm, nodes["node_id"])
     ids, nodes = B.to_keepers(comm, nodes["node_id"], nodes, node_bound)
-    corners = elements["hexes"]
-    used, inverse = np.unique(corners, return_inverse=True)
-    rows = B.rows_of(comm, used, ids, B.first_row(comm, len(ids)), node_bound)
-    elements = dict(elements, hexes=rows[inverse].reshape(corners.shape))
+    elements = dict(elements, hexes=node_rows(comm, elements["hexes"], ids, node_bound))
     element_bound = B.id_bound(comm, elements["element_id"])
     _, elements = B.to_keepers(comm, elements["element_id"], elements, element_bound)
     return nodes, elements
+
+
+def node_rows(comm, corners, kept, bound):
+    """The file rows of the node ids ``corners`` (kept: the ids this rank keeps, sorted):
+    the ids themselves while every id below ``bound`` is in the file (no element has
+    turned into particles), else asked of the keepers (collective)."""
+    if comm.allreduce(len(kept)) == bound:
+        return corners
+    used, inverse = np.unique(corners, return_inverse=True)
+    rows = B.rows_of(comm, used, kept, B.first_row(comm, len(kept)), bound)
+    return rows[inverse].reshape(corners.shape)
 
 
 def totals(comm, nodes, elements):
