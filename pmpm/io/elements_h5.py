@@ -127,6 +127,7 @@ class ElementWriter:
                                      len(frame["node_x"]), len(frame["eps_p"])))
         self.count = len(self.written)
         self.file.attrs["frames"] = self.count
+        self.file.attrs["ranks"] = self.comm.size      # of the run that writes on
 
     def write_frame(self, time, step):
         """Write the elements and nodes of every rank as the next frame, then the XDMF
