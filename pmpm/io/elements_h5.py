@@ -5,7 +5,7 @@ written collectively by all ranks, and ``DIR/elements.xdmf`` that ParaView opens
 File layout::
 
     /                     attrs: body_names, frames (count), ranks
-    /mesh/hexes (m, 8)    int64 rows of the first frame's nodes, VTK order
+    /mesh/hexes (m, 8)    int64 node rows of the elements when the file was made, VTK order
     /mesh/body (m,)       int32; attr n_nodes: the node count that /mesh/hexes indexes
     /frames/000000        attrs: time, step
         node_id (n,) int64, node_x (n,3), node_v (n,3)
@@ -20,13 +20,14 @@ File layout::
 Node rows are in ascending node id, element rows in ascending element id, whatever ranks
 hold them (pmpm.io._by_id): the file is the same, row for row, on any number of ranks.
 Until an element converts, ids are ``0 .. n-1`` and ``0 .. m-1`` and row = id; after,
-the ids that are gone leave no row. Each node is written once, by the lowest rank that
-holds it (the rank that counts it in sums, ``FemBodies.owned``).
+the ids that are gone leave no row. A node that several ranks hold is sent once, by the
+lowest of them (the rank that counts it in sums, ``FemBodies.owned``).
 
 Every rank writes its share with collective MPI-IO (pmpm.io._collective): each sends
 its counted nodes and its elements to the rank that keeps their block of ids (one
-all-to-all per kind), the ranks ask the keepers for the rows of the nodes their
-elements use, and each writes one contiguous block of rows. No rank gathers a frame or
+all-to-all per kind); once ids are missing the ranks also ask the keepers for the rows
+of the nodes their elements use (before, row = id); each then writes one contiguous
+block of rows. No rank gathers a frame or
 holds the whole mesh; /mesh is written the same way when the file is created.
 """
 import os
