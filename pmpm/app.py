@@ -49,6 +49,8 @@ def run_locked(world, args, out, config, case_text, case):
     compile_s = world.max(warm_up(SHAPE_CODES[config.grid.shape_functions], apic))
     baseline = before_setup + current_rss_bytes() - before_compile
     sim, restart, size = setup()
+    del setup      # its closure holds the whole meshes and every body's points (or the
+    #                checkpoint's FEM groups, whole): no rank keeps them for the run
     if size and not args.quiet:
         print(size, flush=True)
     runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart, case=case)

@@ -617,3 +617,47 @@ def test_an_fem_sphere_falls_freely_and_weighs_its_elements(tmp_path):
     assert block["mass"] == pytest.approx(7.8e-3 * 4 / 3 * np.pi * 27, rel=0.04)
     assert block["n_elements"] == 6 ** 3
     assert block["velocity"] == pytest.approx([0, 0, G * summary["t_end"]], abs=1e-12)
+
+
+def test_no_rank_keeps_the_whole_mesh_once_the_run_is_set_up(tmp_path, monkeypatch):
+    """The whole meshes built at set-up (and the checkpoint's FEM groups read whole on a
+    restart) are freed before the time loop: each rank then holds only its elements
+    and their nodes."""
+    import gc
+    import weakref
+
+    from mpi4py import MPI
+
+    import pmpm.app
+    import pmpm.solver.simulation
+    from pmpm.__main__ import parse_args
+    from pmpm.comm import World
+    from pmpm.solver.run import Runner
+    whole, alive = [], []
+    build, read, run = (pmpm.solver.simulation.build_meshes, pmpm.app.read_fem_groups,
+                        Runner.run)
+
+    def building(*args):
+        meshes = build(*args)
+        whole.extend(weakref.ref(m.points) for m in meshes.values())
+        return meshes
+
+    def reading(*args):
+        groups, problem = read(*args)
+        whole.extend(weakref.ref(col) for rows in groups.values() for col in rows.values())
+        return groups, problem
+
+    def running(self, **kwargs):
+        gc.collect()
+        alive.append(sum(ref() is not None for ref in whole))
+        return run(self, **kwargs)
+    monkeypatch.setattr(pmpm.solver.simulation, "build_meshes", building)
+    monkeypatch.setattr(pmpm.app, "read_fem_groups", reading)
+    monkeypatch.setattr(Runner, "run", running)
+    case = write_case(tmp_path, case_tree({"type": "box", "min": [-2, -2, -2],
+                                           "max": [2, 2, 2]}))
+    out = str(tmp_path / "out")
+    for argv in ([case, "--out", out, "--quiet", "--set", "time.end=0.004"],
+                 [case, "--out", out, "--quiet", "--restart"]):
+        pmpm.app.run_case(World(MPI.COMM_SELF), parse_args([str(a) for a in argv]))
+    assert len(whole) > 2 and alive == [0, 0]

@@ -85,3 +85,49 @@ def test_ranks_that_disagree_on_columns_fail_together(mpi_tmp_path):
     with pytest.raises(ValueError, match="rank 1 has columns"):
         writer.write_frame(0.0, 0, columns)
     writer.close()
+
+
+def chain_frame(comm, gone):
+    """A chain of 10 hexahedra (element e uses nodes 4e .. 4e + 7) without the elements
+    ``gone`` and the nodes only they used, dealt out so that elements go to ranks in
+    reverse order to ranks 1, 2, ... and nodes round-robin: (nodes, elements) of this rank in
+    FemBodies.frame's form."""
+    present = np.array([e for e in range(10) if e not in gone], np.int64)
+    corners = 4 * present[:, None] + np.arange(8)
+    node_ids = np.unique(corners)
+    mine = 1 + present % (comm.size - 1) == comm.rank    # rank 0 holds no element
+    nodes = {"node_id": node_ids[node_ids % comm.size == comm.rank]}
+    nodes["node_x"] = np.repeat(nodes["node_id"][:, None], 3, axis=1) * [1.0, 2.0, 3.0]
+    elements = {"element_id": present[mine][::-1].copy(), "hexes": corners[mine][::-1].copy(),
+                "body": (present[mine][::-1] % 2).astype(np.int32),
+                "eps_p": present[mine][::-1] * 0.5}
+    return nodes, elements
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.parametrize("gone", [(), (0, 5, 9)])
+def test_element_rows_follow_ids_whatever_rank_holds_them(mpi_tmp_path, gone):
+    """Element frames lay rows out by id (pmpm.io.elements_h5.laid_out): nodes and
+    elements held by any rank, in any order, rank 0 holding no element; the connectivity
+    points at the rows of its nodes in the file, also when ids are missing (elements gone
+    into particles)."""
+    from pmpm.io.elements_h5 import laid_out, write_laid_out
+    comm = MPI.COMM_WORLD
+    nodes, elements = laid_out(comm, *chain_frame(comm, gone))
+    path = str(mpi_tmp_path / f"chain{len(gone)}.h5")
+    with h5py.File(path, "w", driver="mpio", comm=comm) as f:
+        n_nodes = write_laid_out(f.create_group("nodes"), comm, nodes)
+        n_elements = write_laid_out(f.create_group("elements"), comm, elements)
+    comm.Barrier()
+    if comm.rank == 0:
+        with h5py.File(path, "r") as f:
+            node_id, x = f["nodes/node_id"][()], f["nodes/node_x"][()]
+            element_id, hexes = f["elements/element_id"][()], f["elements/hexes"][()]
+            eps_p, body = f["elements/eps_p"][()], f["elements/body"][()]
+        present = np.array([e for e in range(10) if e not in gone])
+        assert n_elements == len(present) and n_nodes == 44 - 8 * bool(gone)
+        assert (element_id == present).all()
+        assert (node_id == np.unique(4 * present[:, None] + np.arange(8))).all()
+        assert (x == node_id[:, None] * [1.0, 2.0, 3.0]).all()
+        assert (node_id[hexes] == 4 * present[:, None] + np.arange(8)).all()
+        assert (eps_p == present * 0.5).all() and (body == present % 2).all()

@@ -111,8 +111,6 @@ class FemBodies:
             if len(elements["element_id"]) else 0
         # node ids are 0 .. n-1 until elements convert into particles and nodes go
         corners = np.searchsorted(nodes["node_id"], elements["hexes"])
-        fem.output_mesh = (corners, elements["body"], len(nodes["node_id"])) \
-            if world.is_root else None
         centroids = nodes["x"][corners].mean(axis=1)
         mine = element_owners(centroids, grid, slabs) == world.rank
         used = np.unique(corners[mine])
@@ -201,11 +199,9 @@ class FemBodies:
         return problems
 
     def forget_whole_mesh(self):
-        """Keep of the whole mesh only what rank 0 writes (connectivity, body)."""
-        whole = self.whole
+        """Drop the whole mesh once set-up is done: from here on each rank holds only its
+        elements and their nodes (the element frames are written from those)."""
         self.whole = None
-        self.output_mesh = (whole.hexes, whole.body, len(whole.x)) \
-            if self.world.is_root else None
 
     # -- migration (seed 004 notes Sec. 4) ---------------------------------------------
     def slab_cells(self, grid, axis):
@@ -421,25 +417,18 @@ class FemBodies:
         return self.x[self.hexes].mean(axis=1)
 
     def frame(self):
-        """The columns of an element frame (pmpm.io.elements_h5) in global order, on rank
-        0 (None on the others; collective)."""
+        """The columns of an element frame (pmpm.io.elements_h5) held here: (nodes,
+        elements), the nodes this rank counts (``owned``: each node once over the ranks)
+        with ``node_id``, and its elements with ``element_id`` and ``hexes`` as global
+        node ids; the writer puts them in id order."""
         s = self.state
-        nodes = {"node_x": self.x[self.owned], "node_v": self.v[self.owned]}
-        elements = {"stress": s.stress, "eps_p": s.eps_p, "density": s.rho,
-                    "e_int": s.e_int, "centroid": self.centroids(),
+        nodes = {"node_id": self.node_id[self.owned], "node_x": self.x[self.owned],
+                 "node_v": self.v[self.owned]}
+        elements = {"element_id": self.element_id, "hexes": self.node_id[self.hexes],
+                    "body": self.body, "stress": s.stress, "eps_p": s.eps_p,
+                    "density": s.rho, "e_int": s.e_int, "centroid": self.centroids(),
                     "hourglass_energy": self.hourglass.energy}
-        elements["hexes"] = self.node_id[self.hexes]
-        elements["body"] = self.body
-        node_parts = self.world.gather((self.node_id[self.owned], nodes))
-        element_parts = self.world.gather((self.element_id, elements))
-        if not self.world.is_root:
-            return None
-        nodes, elements = in_global_order(node_parts), in_global_order(element_parts)
-        # connectivity into this frame's nodes (fewer than the mesh's once elements
-        # have turned into particles)
-        node_ids = np.sort(np.concatenate([p[0] for p in node_parts]))
-        elements["hexes"] = np.searchsorted(node_ids, elements["hexes"])
-        return {**nodes, **elements}
+        return nodes, elements
 
 
 class WholeMesh:
@@ -484,13 +473,6 @@ def body_entry(sums, box):
             "bbox_max": box[3:].tolist(),
             "energy": {"kinetic": float(sums[9]), "internal": float(sums[10]),
                        "hourglass": float(sums[11])}}
-
-
-def in_global_order(parts):
-    """Concatenate the ranks' (global ids, {name: rows}) and order the rows by id."""
-    ids = np.concatenate([p[0] for p in parts])
-    order = np.argsort(ids, kind="stable")
-    return {name: np.concatenate([p[1][name] for p in parts])[order] for name in parts[0][1]}
 
 
 def constrained_faces(grid):

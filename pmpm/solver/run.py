@@ -219,7 +219,7 @@ class Runner:
         self.frame_index = self.writer.n_frames
         self.element_writer = ElementWriter(
             os.path.join(self.out, "elements.h5"), self.sim.elements, names,
-            self.world.is_root, restart_frame=r["frame_index"] if r else None) \
+            self.world.raw, restart_frame=r["frame_index"] if r else None) \
             if self.sim.elements else None
         self.history = io.HistoryWriter(
             os.path.join(self.out, "history.csv"), names,
