@@ -11,7 +11,8 @@ PY=.venv/bin/python
 # The serial tests run as one share of the test files per core, side by side (at most
 # two: the MPI tests among them take both cores); the kernels are compiled (or loaded)
 # once first. PMPM_TEST_SHARES=1 runs them in one process.
-shares=${PMPM_TEST_SHARES:-$(( $(nproc) > 1 ? 2 : 1 ))}
+cores=$(OMP_NUM_THREADS= OMP_THREAD_LIMIT= nproc)      # nproc obeys OMP_NUM_THREADS
+shares=${PMPM_TEST_SHARES:-$(( cores > 1 ? 2 : 1 ))}
 run_share() {   # share i of $shares; a share that "$@" leaves empty (pytest's 5) passes
     local rc=0
     $PY -m pytest -q --color=no -p no:cacheprovider --shard "$1/$shares" "${@:2}" tests || rc=$?
