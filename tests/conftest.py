@@ -11,8 +11,9 @@ import pytest
 
 from pmpm.kernels.warmup import warm_up_defaults
 
-#: seconds per test file on the 2-core CI machine (serial tests; refresh with
-#: ``pytest --durations=0``): only the shares' balance depends on them
+#: seconds per test file, serial tests in one process on a loaded 2-core machine (refresh
+#: with ``pytest --durations=0``): only the shares' balance depends on them (two shares
+#: on an idle machine: 1068 and 913 s)
 FILE_SECONDS = {
     "test_contact_cases.py": 180, "test_taylor_bar.py": 175, "test_shape_functions.py": 140,
     "test_unchanged_answers.py": 125, "test_matrix.py": 115, "test_hertz.py": 95,
