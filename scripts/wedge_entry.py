@@ -38,27 +38,6 @@ PROBES = (10.0, 17.0, 25.0)               # ms
 SNAPSHOT = 25.0                           # ms, Fig. 15
 
 
-def added_mass_speed(mass=241.0, v0=6.15, rho=1000.0, half=0.25):
-    """Von Karman: v = M v0 / (M + rho pi c^2 / 2) (SI; kg per metre of span)."""
-    return mass * v0 / (mass + rho * np.pi * half ** 2 / 2)
-
-
-def momentum_theory(wetting, end=35.0, mass=241.0, v0=6.15, rho=1000.0, half=0.25,
-                    deadrise=30.0, g=9.81):
-    """(t in ms, v) of the wedge by the momentum balance (M + m_a) v = M (v0 + g t),
-    m_a = rho pi c^2 / 2 with the wetted half-width c = min(wetting * zeta cot(deadrise),
-    half) at the penetration zeta: von Karman's (wetting 1) or with Wagner's pile-up
-    (pi / 2). Explicit Euler in 1 us steps (SI inside)."""
-    cot, dt = 1.0 / np.tan(np.radians(deadrise)), 1e-6
-    times = np.arange(0.0, end * 1e-3 + dt / 2, dt)
-    v, zeta = np.empty(len(times)), 0.0
-    for i, t in enumerate(times):
-        c = min(wetting * zeta * cot, half)
-        v[i] = mass * (v0 + g * t) / (mass + rho * np.pi * c * c / 2)
-        zeta += v[i] * dt
-    return times * 1e3, v
-
-
 def wedge_velocity(out):
     """(t, vy) of the wedge from history.csv."""
     with open(os.path.join(out, "history.csv"), encoding="utf-8") as f:
@@ -102,12 +81,12 @@ def spread(rows, prefix):
 
 
 def table(rows):
-    estimate = added_mass_speed()
+    estimate = fsi.added_mass_speed()
     lines = [f"Von Karman's added-mass estimate once the chines are wet: {estimate:.2f} m/s.",
              "Momentum balance with gravity, (M + m_a) v = M (v0 + g t), at "
              + ", ".join(f"{p:g}" for p in PROBES) + " ms: "
              + "; ".join(f"{name} " + ", ".join(
-                 f"{np.interp(p, *momentum_theory(w)):.3f}" for p in PROBES)
+                 f"{np.interp(p, *fsi.momentum_theory(w)):.3f}" for p in PROBES)
                  for w, name in ((1.0, "von Karman"), (np.pi / 2, "Wagner wetting")))
              + " m/s.", "",
              "| variant | elements | v at 10 ms | v at 17 ms | v at 25 ms | (v25 - est.)/est. "
@@ -132,10 +111,10 @@ def plot_velocity(plt, rows, path):
     fig, ax = plt.subplots(figsize=(6.5, 4))
     for r in rows:
         ax.plot(r["t"], r["v"], label=r["name"], ls="-" if "icfemp" in r["name"] else "--")
-    ax.axhline(added_mass_speed(), color="k", lw=0.8, ls=":",
+    ax.axhline(fsi.added_mass_speed(), color="k", lw=0.8, ls=":",
                label="von Karman added mass (chines wet, no gravity)")
     for wetting, name in ((1.0, "von Karman"), (np.pi / 2, "Wagner wetting")):
-        t, v = momentum_theory(wetting, end=max(r["t"][-1] for r in rows))
+        t, v = fsi.momentum_theory(wetting, end=max(r["t"][-1] for r in rows))
         ax.plot(t, v, color="grey", lw=0.8, ls="-." if wetting > 1 else ":",
                 label=f"momentum, {name} (with gravity)")
     ax.set_xlabel("t (ms)")
@@ -172,9 +151,9 @@ def plot_water(plt, rows, path):
 
 
 def figures(rows):
-    data = {"added_mass_estimate": added_mass_speed(), "variants": {}, "theory": {}}
+    data = {"added_mass_estimate": fsi.added_mass_speed(), "variants": {}, "theory": {}}
     for wetting, name in ((1.0, "von_karman"), (np.pi / 2, "wagner")):
-        t, v = momentum_theory(wetting)
+        t, v = fsi.momentum_theory(wetting)
         data["theory"][name] = {f"{p:g}": float(np.interp(p, t, v)) for p in PROBES}
     for r in rows:
         data["variants"][r["name"]] = {

@@ -89,21 +89,27 @@ def test_positions_follow_the_body_velocity(dropped):
     assert shift[0, 2] < -0.02 and (shift[:, :2] == 0).all()
 
 
+class OneRank:
+    """The one collective lent_inverse_mass calls, on one rank."""
+    def sum(self, value):
+        return value
+
+
+def bare_motion(free, mass):
+    """A RigidMotion of one body with these free axes and mass, without a case."""
+    from pmpm.solver.rigid_motion import RigidMotion
+    motion = RigidMotion.__new__(RigidMotion)
+    motion.free, motion.mass, motion.world = np.array(free), np.array([mass]), OneRank()
+    return motion
+
+
 def test_a_single_pair_meets_the_whole_body_mass():
     """One particle of mass m approaching a free rigid face at relative speed u along
     its normal n leaves with the body's velocity after one inelastic impulse
     m M / (m + M) u (its share of the body's mass is all of it): the lent inverse mass
     is |P n|^2 / M."""
     from pmpm.kernels import surface_contact as ksc
-    from pmpm.solver.rigid_motion import RigidMotion
-    motion = RigidMotion.__new__(RigidMotion)
-    motion.free = np.array([[False, False, True]])
-    motion.mass = np.array([3.0])
-
-    class One:
-        def sum(self, value):
-            return value
-    motion.world = One()
+    motion = bare_motion([[False, False, True]], 3.0)
     n = np.array([[0.0, 0.6, 0.8]])
     lent = motion.lent_inverse_mass(np.array([0]), n, np.zeros((1, 4)), np.array([2.8]))
     assert lent[0] == pytest.approx(np.full(4, 0.64 / 3.0))
@@ -117,15 +123,7 @@ def test_a_single_pair_meets_the_whole_body_mass():
 def test_pairs_share_the_body_mass_by_their_closing_momentum():
     """Three pairs on one free body (two ranks' worth, summed by the world): each meets
     the share w_k / sum(w) of its mass; a pair barely closing meets almost none."""
-    from pmpm.solver.rigid_motion import RigidMotion
-    motion = RigidMotion.__new__(RigidMotion)
-    motion.free = np.array([[True, True, True]])
-    motion.mass = np.array([6.0])
-
-    class One:
-        def sum(self, value):
-            return value
-    motion.world = One()
+    motion = bare_motion([[True, True, True]], 6.0)
     n = np.tile([0.0, 0.0, 1.0], (3, 1))
     lent = motion.lent_inverse_mass(np.zeros(3, np.int64), n, np.zeros((3, 4)),
                                     np.array([1.0, 2.0, 1e-12]))

@@ -1,7 +1,9 @@
 """Reading a fluid-structure run back (serial): the FE nodes' paths from ``elements.h5``
 and the particles found inside the deformed elements (seed 004 Sec. 4.3, runs/
 water_column.yaml). Plane strain: the elements are one layer thick along z, so each is
-a quadrilateral in the x-y plane."""
+a quadrilateral in the x-y plane. The falling wedge's momentum balances (von Karman's
+added mass, Wagner's pile-up; seed 004 Sec. 4.4, runs/wedge_entry.yaml) to compare its
+velocity with."""
 import os
 
 import h5py
@@ -75,3 +77,25 @@ def particles_inside(out_dir, body, margin=0.0, index=-1):
         raise ValueError(f"no element frame at t = {frame['time']}")
     points = frame["x"][frame["body"] == body, :2]
     return frame["time"], int(inside_quads(points, element_quads(x[k], hexes), margin).sum())
+
+
+def added_mass_speed(mass=241.0, v0=6.15, rho=1000.0, half=0.25):
+    """Von Karman: v = M v0 / (M + rho pi c^2 / 2) once the chines (half-width c) are wet
+    (SI; kg per metre of span; defaults: seed 004 Sec. 4.4's wedge)."""
+    return mass * v0 / (mass + rho * np.pi * half ** 2 / 2)
+
+
+def momentum_theory(wetting, end=35.0, mass=241.0, v0=6.15, rho=1000.0, half=0.25,
+                    deadrise=30.0, g=9.81):
+    """(t in ms, v) of the wedge by the momentum balance (M + m_a) v = M (v0 + g t),
+    m_a = rho pi c^2 / 2 with the wetted half-width c = min(wetting * zeta cot(deadrise),
+    half) at the penetration zeta: von Karman's (wetting 1) or with Wagner's pile-up
+    (pi / 2). Explicit Euler in 1 us steps (SI inside)."""
+    cot, dt = 1.0 / np.tan(np.radians(deadrise)), 1e-6
+    times = np.arange(0.0, end * 1e-3 + dt / 2, dt)
+    v, zeta = np.empty(len(times)), 0.0
+    for i, t in enumerate(times):
+        c = min(wetting * zeta * cot, half)
+        v[i] = mass * (v0 + g * t) / (mass + rho * np.pi * c * c / 2)
+        zeta += v[i] * dt
+    return times * 1e3, v

@@ -137,7 +137,6 @@ class RigidMotion:
         mine = on & elements.owned
         momentum = elements.mass[mine, None] * change[mine]
         dv = self.summed_change(elements.node_body[mine], elements.node_id[mine], momentum)
-        change[on] = 0.0
         self.velocity += dv
         change[on] = dv[elements.node_body[on]]
 
