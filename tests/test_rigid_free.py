@@ -120,6 +120,19 @@ def test_a_single_pair_meets_the_whole_body_mass():
     assert impulse == pytest.approx(2.0 / (1.0 + 2.0 * 0.64 / 3.0) * u * n[0])
 
 
+def test_a_pair_that_cannot_move_the_body_takes_no_share_of_its_mass():
+    """Free in z only: a pair on a face with normal x (a wall of the body) cannot push it
+    and meets it as rigid; the two pairs under it, pushing in z, share the whole mass
+    (before, the wall pair's closing momentum took a third of it, and the two met only
+    two thirds of the body: pushed to beyond their common velocity)."""
+    motion = bare_motion([[False, False, True]], 6.0)
+    n = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    lent = motion.lent_inverse_mass(np.zeros(3, np.int64), n, np.zeros((3, 4)),
+                                    np.array([1.0, 1.0, 1.0]))
+    assert (lent[0] == 0.0).all()
+    assert 1.0 / (6.0 * lent[1:, 0]) == pytest.approx([0.5, 0.5], rel=1e-12)
+
+
 def test_pairs_share_the_body_mass_by_their_closing_momentum():
     """Three pairs on one free body (two ranks' worth, summed by the world): each meets
     the share w_k / sum(w) of its mass; a pair barely closing meets almost none."""

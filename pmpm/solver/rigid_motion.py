@@ -13,13 +13,14 @@ In each step:
 * ``integrate`` (after the mesh's trial update): V_b += dt g in the free axes, and the
   nodes take V_b (their element forces are zero, as for any rigid body);
 * surface coupling (ICFEMP, pmpm.solver.surface_contact): pair k on body b meets the
-  share s_k = w_k / W_b of its mass M_b, w_k = m_p u_k its particle's mass times its
-  closing speed, W_b the sum over b's approaching pairs on all ranks, as the phi-shares
+  share s_k = w_k / W_b of its mass M_b, w_k = m_p u_k |P n|^2 its particle's mass times
+  its closing speed times the share of its normal n in the free axes (P the projection
+  on them), W_b the sum over b's approaching pairs on all ranks, as the phi-shares
   of a deformable face lend a node's mass (a layer of n equal particles moving alike
   meets M_b / n each, which is one inelastic collision of the layer with the body,
   n m_p M_b/(n m_p + M_b); the body is never pushed beyond its pairs' fastest closing
-  speed); the mass it meets along its normal n is s_k M_b / |P n|^2, P the projection
-  on the free axes (the held axes are an infinite mass). Then
+  speed); the mass it meets along its normal n is s_k M_b / |P n|^2 (the held axes
+  are an infinite mass). Then
   ``take_impulses``: V_b += P (sum of the pairs' impulses on b) / M_b, the nodes take
   the change on their velocities and dt times it on their positions (the particles' own
   correction moves them so too);
@@ -100,25 +101,29 @@ class RigidMotion:
         """Per pair, (k, 4) the inverse masses its master face's nodes lend it (``lent``,
         from the deformable rule), those of free rigid faces replaced by
         |P n|^2 / (s_k M_b): pair k meets the share s_k = w_k / W_b of its body's mass,
-        w_k = ``closing`` = m_p times its closing speed, W_b the sum of w over the pairs
-        on b over all ranks (collective). n pairs alike share M_b / n; a pair that barely
+        w_k = ``closing`` |P n|^2 (m_p times its closing speed, times the share of its
+        normal in the free axes), W_b the sum of w over the pairs on b over all ranks
+        (collective). A pair whose normal has no free component cannot move the body,
+        weighs nothing and meets it as rigid; without the |P n|^2 it took a share that
+        the pairs that push along the free axes then missed, and those met less than the
+        whole body. n pairs alike share M_b / n; a pair that barely
         approaches takes a share that vanishes with its speed, so no pair changes the
         others' shares by a jump when it comes or goes (a plain count n_b did: 1 rank and
         2 ranks, apart by round-off in one pair's closing speed, split by 0.2 %)."""
         on = self.free.any(axis=1)[bodies]
-        weight = np.where(on, closing, 0.0)
+        free_n = np.where(self.free[bodies], normals, 0.0)
+        along = np.einsum("kd,kd->k", free_n, free_n)
+        weight = np.where(on, closing * along, 0.0)
         total = np.zeros(len(self.mass))
         np.add.at(total, bodies[on], weight[on])
         total = self.world.sum(total)
         if not on.any():
             return lent
-        free_n = np.where(self.free[bodies], normals, 0.0)
-        along = np.einsum("kd,kd->k", free_n, free_n)
         mass = np.where(self.mass > 0, self.mass, 1.0)[bodies]
-        share = np.divide(total[bodies] * along, mass * weight,
-                          out=np.zeros(len(bodies)), where=weight > 0)
+        inverse = np.divide(total[bodies] * along, mass * weight,
+                            out=np.zeros(len(bodies)), where=weight > 0)
         out = lent.copy()
-        out[on] = share[on, None]
+        out[on] = inverse[on, None]
         return out
 
     def take_impulses(self, elements, bodies, ids, impulses, dt):
