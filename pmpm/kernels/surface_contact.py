@@ -6,7 +6,7 @@ master segments (bilinear faces of FE elements), free of MPI and of the case.
 * ``closest_point``: the local search (Eqs. 36-41), the closest point of a bilinear face by
   Newton, its outward unit normal and the gap;
 * ``find_pairs``: per particle its nearest segment, among those of its buckets, that it
-  touches;
+  touches or has got behind in the step (``segment_moves``: how far each face moved);
 * ``pair_impulses``: per pair the stick impulse with Coulomb's cap (Eqs. 42-53).
 
 A face's nodes 0-3 sit at (xi, eta) = (-1,-1), (1,-1), (1,1), (-1,1), counter-clockwise
@@ -148,18 +148,43 @@ def nearer(dist, key, best, best_key, tie):
 
 
 @njit(cache=True)
-def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_size, dims,
-               start, items, pair_seg, pair_geo):
+def segment_moves(seg_x, seg_x0, moves):
+    """``moves[s]``: the farthest any node of segment s moved in the step (from its
+    start-of-step positions ``seg_x0``)."""
+    for s in range(len(seg_x)):
+        far = 0.0
+        for j in range(4):
+            d2 = 0.0
+            for d in range(3):
+                d2 += (seg_x[s, j, d] - seg_x0[s, j, d]) ** 2
+            far = max(far, d2)
+        moves[s] = np.sqrt(far)
+
+
+@njit(cache=True)
+def find_pairs(px, px0, pbody, radius, depth, seg_x, seg_x0, seg_move, seg_body, seg_key,
+               touches, lo, inv_size, dims, start, items, pair_seg, pair_geo):
     """Per particle p its segment: among the segments of its bucket whose body it
-    ``touches[pbody, seg_body]``, those it is in contact with, g < radius[p] (the particle
-    a sphere of half its spacing) and g > -radius[p] (its centre not further in, which
-    rules out the far faces of the body), with the closest point at most radius[p] from
-    the foot of the normal (so a particle beside an edge meets the side face); of those
-    the nearest, ties (within TIE of radius^2) to the smaller segment key (the same on
-    any rank count).
+    ``touches[pbody, seg_body]``, those it is in contact with: g < radius[p] (the
+    particle a sphere of half its spacing), the closest point at most radius[p] from the
+    foot of the normal (so a particle beside an edge meets the side face), and a centre
+    that was on this face's side at the start of the step and has not gone through:
+
+    * g > -(depth[p] + seg_move[s]): the centre is at most as deep behind the face as its
+      radius plus how far it (``depth[p]`` = radius + its move in the step) and the face
+      (``seg_move[s]``) moved in the step. A centre that was out (or within its radius)
+      at the start cannot skip this window in one step, however fast it went;
+    * g0 > -radius[p], g0 the gap of the start-of-step centre ``px0`` from the
+      start-of-step face ``seg_x0``: the centre was not deeper than its radius behind the
+      face before the step. This rules out the far faces of the body, and a face that a
+      centre crossing a thin body reaches from behind: it is not pulled through to the
+      wrong side.
+
+    Of those the nearest, ties (within TIE of radius^2) to the smaller segment key (the
+    same on any rank count).
     ``pair_seg[p]``: the segment index or -1; ``pair_geo[p]``: xi, eta, n (3), g.
     Returns the number of pairs."""
-    out = np.empty(5)
+    out, before = np.empty(5), np.empty(5)
     n_pairs = 0
     for p in range(len(px)):
         pair_seg[p] = -1
@@ -172,15 +197,19 @@ def find_pairs(px, pbody, radius, seg_x, seg_body, seg_key, touches, lo, inv_siz
             if not touches[pbody[p], seg_body[s]]:
                 continue
             g, off = closest_point(seg_x[s], px[p], out)
-            if g >= radius[p] or g <= -radius[p] or off > radius[p]:
+            if g >= radius[p] or g <= -(depth[p] + seg_move[s]) or off > radius[p]:
                 continue
             dist = g * g + off * off
-            if nearer(dist, seg_key[s], best, best_key, TIE * radius[p] * radius[p]):
-                best, best_key = dist, seg_key[s]
-                pair_seg[p] = s
-                for c in range(5):
-                    pair_geo[p, c] = out[c]
-                pair_geo[p, 5] = g
+            if not nearer(dist, seg_key[s], best, best_key, TIE * radius[p] * radius[p]):
+                continue
+            g0, _ = closest_point(seg_x0[s], px0[p], before)
+            if g0 <= -radius[p]:
+                continue
+            best, best_key = dist, seg_key[s]
+            pair_seg[p] = s
+            for c in range(5):
+                pair_geo[p, c] = out[c]
+            pair_geo[p, 5] = g
         if pair_seg[p] >= 0:
             n_pairs += 1
     return n_pairs

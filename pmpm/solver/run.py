@@ -315,6 +315,7 @@ class Runner:
             "memory": memory_summary(self.world, self.baseline_rss, self.n_initial),
             "bodies": self.body_summary(),
             **self.element_summary(),
+            **self.sim.contact_summary(),
         }
 
     def element_summary(self):

@@ -174,6 +174,8 @@ class Simulation:
         sim.time, sim.step_count = scalars["time"], scalars["step"]
         sim.stepper.fastest = scalars["fastest"]
         sim.decomposition.lost = scalars.get("lost", 0)
+        if sim.surface:
+            sim.surface.deepest = scalars.get("surface_deepest", 0.0)
         for name in ("lost_count", "lost_mass"):
             if name in scalars:
                 getattr(sim.decomposition, name)[:] = scalars[name]
@@ -219,13 +221,15 @@ class Simulation:
         return result
 
     def restart_state(self):
-        """What a checkpoint keeps beyond the points' columns."""
+        """What a checkpoint keeps beyond the points' columns (collective: the deepest
+        centre of surface contact is reduced over the ranks)."""
         return {"slab_axis": self.slabs.axis, "slab_bounds": self.slabs.bounds.tolist(),
                 "fastest": self.stepper.fastest, "lost": int(self.lost),
                 "lost_count": self.decomposition.lost_count.tolist(),
                 "lost_mass": self.decomposition.lost_mass.tolist(),
                 "refine": self.refiner.state(),
-                "convert": self.conversion.state() if self.conversion else None}
+                "convert": self.conversion.state() if self.conversion else None,
+                "surface_deepest": self.surface.deepest_centre() if self.surface else 0.0}
 
     def checkpoint_groups(self):
         """The row sets a checkpoint keeps beside the particles (FEM bodies), or None."""
@@ -248,6 +252,15 @@ class Simulation:
         return max(self.world.max(float(speeds.max())) * finest, self.world.max(elements))
 
     # -- what the outputs ask, over every body kind ------------------------------------
+    def contact_summary(self):
+        """With particle-to-surface contact: ``surface_contact.largest_penetration``, the
+        deepest any particle centre was found behind the face of its pair (approaching or
+        not, before the correction) over the run and all ranks, in the case's length unit
+        (collective)."""
+        if not self.surface:
+            return {}
+        return {"surface_contact": {"largest_penetration": self.surface.deepest_centre()}}
+
     def energies(self):
         """Kinetic, internal (the elements' hourglass energy included) and total energy
         over all ranks; with FEM bodies also ``hourglass`` on its own."""

@@ -76,7 +76,7 @@ from .couplings import Coupling
 GAP_CLOSURE = 0.5
 #: the most buckets of the global search (their size grows beyond a face's to keep to it)
 MAX_BUCKETS = 2 ** 21
-SEGMENT_FIELDS = ("gid", "x", "v", "inv_m", "body", "key", "holders")
+SEGMENT_FIELDS = ("gid", "x", "x0", "v", "inv_m", "body", "key", "holders")
 
 
 class SurfaceContact(Coupling):
@@ -116,7 +116,8 @@ class SurfaceContact(Coupling):
         local = float(half_spacing(p.vol0[slave]).max()) if slave.any() else 0.0
         local = max(local, 0.5 * float(spacing.max(initial=0.0)))
         self.reach = 2.0 * world.max(local)
-        self.last_pairs, self.largest_penetration = 0, 0.0
+        self.last_pairs, self.largest_penetration, self.deepest = 0, 0.0, 0.0
+        self.start_x = self.start_node_x = None
         self.refresh_faces()
 
     # -- the master segments --------------------------------------------------------
@@ -151,7 +152,8 @@ class SurfaceContact(Coupling):
         """This rank's segments with their nodes' current state (what does not change
         between refreshes is kept from :meth:`refresh_faces`)."""
         fem, nodes = self.elements, self.face_nodes
-        return {"gid": self.face_gid, "x": fem.x[nodes], "v": fem.v[nodes],
+        return {"gid": self.face_gid, "x": fem.x[nodes], "x0": self.start_node_x[nodes],
+                "v": fem.v[nodes],
                 "inv_m": self.face_inv_m, "body": self.face_body,
                 "key": self.face_key, "holders": self.face_holders}
 
@@ -164,7 +166,8 @@ class SurfaceContact(Coupling):
         axis, h = slabs.axis, self.grid.h
         plane = self.grid.origin[axis] + slabs.bounds * h
         plane[0], plane[-1] = -np.inf, np.inf
-        pad = self.reach + h
+        pad = self.reach + 2.0 * h   # a cell for the migration that has not happened yet,
+        # one for the depth a centre may reach in a step (points move less than a cell)
         x = own["x"][:, :, axis]
         lo, hi = x.min(axis=1) - pad, x.max(axis=1) + pad
         packages = []
@@ -175,16 +178,22 @@ class SurfaceContact(Coupling):
                                SEGMENT_FIELDS)
 
     # -- the step ---------------------------------------------------------------------
+    def after_scatter(self, grids, kinds):
+        """Keep the start-of-step positions of the particles and FE nodes: the search
+        tells from them on which side of a face a centre that is now inside it was."""
+        self.start_x = self.points.particles.x.copy()
+        self.start_node_x = self.elements.x.copy()
+
     def after_update_points(self, dt):
         segs = self.with_halo(self.own_segments())
-        pair_p, pair_s, geo = self.find_pairs(segs)
-        phi = shapes(geo[:, 0], geo[:, 1])
+        found_p, found_s, found_geo = self.find_pairs(segs)
+        phi = shapes(found_geo[:, 0], found_geo[:, 1])
         p = self.points.particles
-        v_c = np.einsum("kj,kjd->kd", phi, segs["v"][pair_s])
-        closing = -np.einsum("kd,kd->k", p.v[pair_p] - v_c, geo[:, 2:5])
+        v_c = np.einsum("kj,kjd->kd", phi, segs["v"][found_s])
+        closing = -np.einsum("kd,kd->k", p.v[found_p] - v_c, found_geo[:, 2:5])
         approach = closing > 0.0
-        pair_p, pair_s, geo, phi = pair_p[approach], pair_s[approach], geo[approach], \
-            phi[approach]
+        pair_p, pair_s, geo, phi = found_p[approach], found_s[approach], \
+            found_geo[approach], phi[approach]
         lent_inv_m = segs["inv_m"] * self.phi_sums(segs, pair_p, pair_s, phi)
         impulses = np.zeros((len(pair_p), 3))
         rigid, bodies = self.elements.rigid_motion, segs["body"][pair_s]
@@ -197,41 +206,67 @@ class SurfaceContact(Coupling):
         else:
             ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
                               segs["v"], lent_inv_m, segs["body"], self.friction, impulses)
-        self.push_particles(pair_p, geo, impulses, dt)
+        lift = np.zeros(len(found_p))
+        lift[approach] = self.push_particles(pair_p, geo, impulses, dt)
+        self.close_gaps(found_p, found_geo, lift)
         self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
         if rigid is not None:
             rigid.take_impulses(self.elements, bodies, p.id[pair_p], impulses, dt)
         self.last_pairs = len(pair_p)
 
+    def close_gaps(self, pair_p, geo, lift):
+        """Every pair whose particle centre is inside its face, approaching or not, moves
+        the centre out along the normal (the position only: no energy, no momentum;
+        ``lift``: how far out the pair's impulse already moved it): see :func:`closure`.
+        Records the deepest centre of the step (before any move) and of the run so far
+        (this rank's)."""
+        p = self.points.particles
+        depth = approach_depth(geo)
+        radius = half_spacing(p.vol0[pair_p])
+        p.x[pair_p] += closure(depth, radius, lift)[:, None] * geo[:, 2:5]
+        self.largest_penetration = float(depth.max()) if len(depth) else 0.0
+        self.deepest = max(self.deepest, self.largest_penetration)
+
+    def deepest_centre(self):
+        """The deepest particle centre behind a face found so far in the run, over all
+        ranks (collective)."""
+        return self.world.max(self.deepest)
+
     def push_particles(self, pair_p, geo, impulses, dt):
-        """Each pair's particle takes -I on its velocity and -dt I/m_p on its position;
-        a centre found inside its face moves out by GAP_CLOSURE of its depth."""
+        """Each approaching pair's particle takes -I on its velocity and -dt I/m_p on its
+        position; returns how far that moved each out along its normal."""
         p = self.points.particles
         share = impulses / p.mass[pair_p, None]
         p.v[pair_p] -= share
         p.x[pair_p] -= dt * share
-        inside = approach_depth(geo)
-        p.x[pair_p] += GAP_CLOSURE * inside[:, None] * geo[:, 2:5]
-        self.largest_penetration = float(inside.max()) if len(geo) else 0.0
+        return -dt * np.einsum("kd,kd->k", share, geo[:, 2:5])
 
     def find_pairs(self, segs):
         """(particle index, segment index, geometry (xi, eta, n, g)) of every particle in
-        contact with a segment (before the approach test)."""
+        contact with a segment (before the approach test). Each face's box is grown by
+        ``reach`` plus the farthest any particle of this rank and any face node moved in
+        the step, the depth a centre may reach behind a face (kernel ``find_pairs``)."""
         p = self.points.particles
         if not len(segs["key"]) or not p.n:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
-        x = np.ascontiguousarray(segs["x"])
-        seg_lo, seg_hi = x.min(axis=1) - self.reach, x.max(axis=1) + self.reach
+        x, x0 = np.ascontiguousarray(segs["x"]), np.ascontiguousarray(segs["x0"])
+        slave = self.slave_bodies[p.body]
+        moved = np.where(slave, np.linalg.norm(p.x - self.start_x, axis=1), 0.0)
+        seg_move = np.empty(len(x))
+        ksc.segment_moves(x, x0, seg_move)
+        grow = self.reach + moved.max() + seg_move.max()
+        seg_lo, seg_hi = x.min(axis=1) - grow, x.max(axis=1) + grow
         lo = seg_lo.min(axis=0)
         edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
         extent = seg_hi.max(axis=0) - lo
         size = max(edge, 2.0 * self.reach, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
         dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
         start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
-        radius = np.where(self.slave_bodies[p.body], half_spacing(p.vol0), 0.0)
+        radius = np.where(slave, half_spacing(p.vol0), 0.0)
         pair_seg, geo = np.empty(p.n, np.int64), np.empty((p.n, 6))
-        ksc.find_pairs(p.x, p.body.astype(np.int64), radius, x, segs["body"], segs["key"],
-                       self.touches, lo, 1.0 / size, dims, start, items, pair_seg, geo)
+        ksc.find_pairs(p.x, self.start_x, p.body.astype(np.int64), radius, radius + moved,
+                       x, x0, seg_move, segs["body"], segs["key"], self.touches, lo,
+                       1.0 / size, dims, start, items, pair_seg, geo)
         pair_p = np.flatnonzero(pair_seg >= 0)
         return pair_p, pair_seg[pair_p], geo[pair_p]
 
@@ -288,6 +323,18 @@ def joined_segments(parts, fields):
 def approach_depth(geo):
     """How deep each pair's particle centre is inside its face (0 when outside)."""
     return np.maximum(0.0, -geo[:, 5])
+
+
+def closure(depth, radius, lift):
+    """How far a centre ``depth`` behind its face at the trial position moves out in a
+    step, beyond the ``lift`` its impulse gave it. Within its radius (the contact
+    window of a centre that was already touching): GAP_CLOSURE of the depth, as a
+    partial step that does not undo the velocity constraint's work. Deeper (a centre
+    that crossed the face in this step faster than the window is wide): back onto the
+    face, all of the depth the impulse left, so that the next step starts within the
+    radius of the face it came through and the search keeps the pair."""
+    left = np.maximum(0.0, depth - lift)
+    return np.where(depth > radius, left, GAP_CLOSURE * depth)
 
 
 def half_spacing(vol0):
