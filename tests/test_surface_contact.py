@@ -120,8 +120,10 @@ def test_buckets_find_every_segment_a_particle_can_touch():
     size = 1.0
     dims = np.ceil((hi_s.max(axis=0) - lo) / size).astype(np.int64)
     start, items = ksc.bucket_segments(lo_s, hi_s, lo, 1 / size, dims)
-    args = (px, np.zeros(400, np.int64), radius, faces, np.ones(60, np.int64),
-            np.arange(60, dtype=np.int64), np.array([[False, True], [False, False]]))
+    # at rest: start-of-step positions as now, the search as deep as the radius
+    args = (px, px, np.zeros(400, np.int64), radius, radius, faces, faces, np.zeros(60),
+            np.ones(60, np.int64), np.arange(60, dtype=np.int64),
+            np.array([[False, True], [False, False]]))
     seg, geo = np.empty(400, np.int64), np.empty((400, 6))
     n = ksc.find_pairs(*args, lo, 1 / size, dims, start, items, seg, geo)
     every = np.tile(np.arange(60), (1, 1)).astype(np.int64)
