@@ -86,9 +86,12 @@ def test_the_tangential_impulse_is_capped_at_mu_times_the_normal():
     assert abs(impulse[0] / impulse[1] - 3.0) < 1e-12
 
 
-def test_a_separating_pair_or_two_rigid_sides_get_nothing():
-    left, impulse, _, _ = one_pair([0.0, 0.0, 0.5], np.zeros((4, 3)))
-    assert left == -1.0 and not impulse.any()
+def test_a_separating_pair_gets_no_impulse_but_its_depth_or_two_rigid_sides_nothing():
+    """A node 1e-3 inside a face it leaves at 0.5: no impulse, but its whole depth times
+    the pair's mass comes back, for the position correction (issue 24 Sec. 4: before,
+    -1, and the node stayed inside)."""
+    left, impulse, phi, inv_m = one_pair([0.0, 0.0, 0.5], np.zeros((4, 3)))
+    assert abs(left - 1e-3 / (0.5 + phi @ (phi * inv_m))) < 1e-15 and not impulse.any()
     phi, impulse = np.full(4, 0.25), np.empty(3)
     left = knc.node_impulse(0.0, np.array([0.0, 0.0, -1.0]), np.zeros((4, 3)), np.zeros(4),
                             phi, np.array([0.0, 0.0, 1.0]), -1e-3, 0.0, 1e-3, impulse)
@@ -97,8 +100,8 @@ def test_a_separating_pair_or_two_rigid_sides_get_nothing():
 
 def test_a_node_at_the_edge_of_the_face_it_hits_takes_that_face_not_the_side():
     """A cube's corner region: a node on the edge between the top face (+z) and the side
-    face (+x), moving down into the cube, lies in the plane of the side face (g = 0,
-    no approach) and crosses the top one: it pairs with the top face."""
+    face (+x), moving down into the cube, lies in the plane of the side face (g = 0)
+    and crosses the top one: it pairs with the top face."""
     from pmpm.fem.hexahedron import FACES
     cube = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
                      [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
@@ -111,8 +114,10 @@ def test_a_node_at_the_edge_of_the_face_it_hits_takes_that_face_not_the_side():
     start, items = ksc.bucket_segments(faces.min(axis=1) - 0.5, faces.max(axis=1) + 0.5,
                                        lo, 1 / size, dims)
     seg, geo = np.empty(1, np.int64), np.empty((1, 6))
-    n = knc.find_node_pairs(nx, nv, np.zeros(1, np.int64), faces, np.zeros((6, 4, 3)),
-                            np.ones(6, np.int64), np.arange(6, dtype=np.int64), depth,
+    before = nx - 1e-3 * nv                    # where it was at the step's start
+    n = knc.find_node_pairs(nx, before, np.full(1, 0.01), np.zeros(1, np.int64), faces,
+                            faces, np.zeros(6), np.ones(6, np.int64),
+                            np.arange(6, dtype=np.int64), depth,
                             np.array([[False, True], [False, False]]), 1e-9, lo,
                             1 / size, dims, start, items, seg, geo)
     assert n == 1 and np.allclose(geo[0, 2:5], [0, 0, 1]) and abs(geo[0, 5] + 0.01) < 1e-12
@@ -297,3 +302,78 @@ def test_node_contact_of_a_body_on_the_grid_is_refused_naming_its_key(tmp_path):
     with pytest.raises(SetupError) as error:
         simulation(str(path))
     assert "contact.pairs[1].coupling" in str(error.value.problems)
+
+
+# -- the search's depth and side (issue 24 Sec. 4) --------------------------------------
+def thin_plate_search(now, before, move, depth=0.01):
+    """find_node_pairs of one node of body 0 (``now``, ``before``: its trial and
+    start-of-step positions, ``move``: how far it moved) against the top (+z, segment 0)
+    and bottom (-z, segment 1) faces of a plate of body 1, 20 mm thick, that stays put,
+    each face ``depth`` deep (half its element's size). Returns (segment, gap)."""
+    square = np.array([[0, 0], [0.04, 0], [0.04, 0.04], [0, 0.04]], float)
+    faces = np.ascontiguousarray(np.stack([np.column_stack([square, np.full(4, 0.02)]),
+                                           np.column_stack([square[::-1], np.zeros(4)])]))
+    seg, geo = np.empty(1, np.int64), np.empty((1, 6))
+    knc.find_node_pairs(np.array([now]), np.array([before]), np.full(1, move),
+                        np.zeros(1, np.int64), faces, faces, np.zeros(2),
+                        np.ones(2, np.int64), np.arange(2, dtype=np.int64),
+                        np.full(2, depth), np.array([[False, True], [False, False]]),
+                        1e-9, np.full(3, -1.0), 0.1, np.ones(3, np.int64),
+                        np.array([0, 2], np.int64), np.array([0, 1], np.int64), seg, geo)
+    return seg[0], geo[0, 5]
+
+
+def test_a_node_that_crossed_deeper_than_the_face_in_one_step_is_found():
+    """From 2 mm above the top face to 14 mm behind it (deeper than the face's 10 mm):
+    before issue 24 Sec. 4 the search stopped at the depth and the node went through;
+    now it reaches the depth plus the node's 16 mm move, and pairs with the top face
+    (not with the bottom one, which it is nearer to: it was 22 mm behind that at the
+    start). The same node coming up from 2 mm below the plate pairs with the bottom
+    face; one that was 10 mm deep behind both faces at the start is left alone."""
+    seg, g = thin_plate_search([0.02, 0.02, 0.006], [0.02, 0.02, 0.022], 0.016)
+    assert seg == 0 and abs(g + 0.014) < 1e-12
+    seg, g = thin_plate_search([0.02, 0.02, 0.006], [0.02, 0.02, -0.002], 0.008)
+    assert seg == 1 and abs(g + 0.006) < 1e-12
+    seg, _ = thin_plate_search([0.02, 0.02, 0.006], [0.02, 0.02, 0.01], 0.004)
+    assert seg == -1
+
+
+def test_a_node_in_front_of_a_nearer_face_is_not_inside():
+    """Two faces of the other body: a side face (-y) whose plane the node lies 8 mm
+    behind, and a face (-z) 1 mm above the node, which it has not crossed (the bottom
+    edge of a block resting on a plate: its nodes lie behind the block's side planes
+    without being in the block). The uncrossed face is nearer: no pair. Moved 1.5 mm up,
+    through that face, the node pairs with it."""
+    from pmpm.fem.hexahedron import FACES
+    cube = 0.02 * np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                            [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    out = np.empty(5)
+    side = next(f for f in cube[FACES]
+                if ksc.closest_point(np.ascontiguousarray(f), np.full(3, 0.01), out)[0] < 0
+                and out[3] < -0.99)                                   # normal -y
+    square = np.array([[0, 0], [0.02, 0], [0.02, 0.02], [0, 0.02]], float)
+    under = np.column_stack([square[::-1], np.full(4, 0.005)])       # normal -z
+    faces = np.ascontiguousarray(np.stack([side, under]))
+    found = []
+    for z in (0.004, 0.0055):
+        node = np.array([[0.01, 0.008, z]])
+        seg, geo = np.empty(1, np.int64), np.empty((1, 6))
+        knc.find_node_pairs(node, node, np.zeros(1), np.zeros(1, np.int64), faces, faces,
+                            np.zeros(2), np.ones(2, np.int64), np.arange(2, dtype=np.int64),
+                            np.full(2, 0.01), np.array([[False, True], [False, False]]),
+                            1e-9, np.full(3, -1.0), 0.1, np.ones(3, np.int64),
+                            np.array([0, 2], np.int64), np.array([0, 1], np.int64), seg,
+                            geo)
+        found.append((seg[0], geo[0, 5]))
+    assert found[0][0] == -1
+    assert found[1][0] == 1 and abs(found[1][1] + 0.0005) < 1e-12
+
+
+def test_the_summary_carries_the_deepest_node():
+    """contact_summary's node_contact.largest_penetration is the deepest node of the
+    run, over the steps' own measures (the sliding block, 2 ms)."""
+    sim = simulation(SLIDING, ["time.end=0.002"])
+    depths = []
+    run(sim, lambda s: depths.append(s.node_contact.largest_penetration))
+    deepest = sim.contact_summary()["node_contact"]["largest_penetration"]
+    assert deepest == max(depths) > 0.0

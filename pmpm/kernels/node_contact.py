@@ -4,8 +4,8 @@ geometry are particle-to-surface contact's (pmpm.kernels.surface_contact:
 ``bucket_segments``, ``bucket_of``, ``closest_point``, ``face_shapes``).
 
 * ``find_node_pairs``: per slave node the nearest master face it has crossed at the
-  trial positions (gap g < 0, at most the face's ``depth`` in, its foot inside the face)
-  while approaching it;
+  trial positions (gap g < 0, its foot inside the face, at most the face's ``depth`` in
+  plus what node and face moved in the step, on the face's side at the step's start);
 * ``node_pair_impulses``: per pair the impulse that lands the node on the face, with
   Coulomb's cap on the tangential part.
 
@@ -35,31 +35,34 @@ def segment_boxes(seg_x, pad, seg_lo, seg_hi):
 
 
 @njit(cache=True)
-def relative_normal_speed(v_s, seg_v, xi, eta, n, phi):
-    """(v_s - v_c).n with v_c = sum phi_J(xi, eta) v_J, the face point's velocity."""
-    face_shapes(xi, eta, phi)
-    u = 0.0
-    for d in range(3):
-        vc = 0.0
-        for j in range(4):
-            vc += phi[j] * seg_v[j, d]
-        u += (v_s[d] - vc) * n[d]
-    return u
+def find_node_pairs(nx, nx0, nmove, nbody, seg_x, seg_x0, seg_move, seg_body, seg_key,
+                    seg_depth, touches, tol, lo, inv_size, dims, start, items, pair_seg,
+                    pair_geo):
+    """Per slave node n (trial positions ``nx``, start-of-step positions ``nx0``, bodies
+    ``nbody``) its segment: among the segments of its bucket whose body it
+    ``touches[nbody, seg_body]``, those it has crossed, g < -tol, with its closest point
+    at most ``tol`` from the foot of the normal (inside the face), approaching or not,
+    and on this face's side before the step:
 
+    * g > -(seg_depth[s] + nmove[n] + seg_move[s]): at most the face's depth plus what
+      the node and the face moved in the step behind it, so a node that was on the face
+      at the start cannot skip the window in one step however fast it went;
+    * g0 > -seg_depth[s], g0 the gap of ``nx0`` from the start-of-step face ``seg_x0``:
+      the node was within the face's depth of it before the step, which rules out the
+      far faces of the body and a face that a node crossing a thin body reaches from
+      behind (it is not pulled through to the wrong side).
 
-@njit(cache=True)
-def find_node_pairs(nx, nv, nbody, seg_x, seg_v, seg_body, seg_key, seg_depth, touches,
-                    tol, lo, inv_size, dims, start, items, pair_seg, pair_geo):
-    """Per slave node n (trial positions ``nx``, velocities ``nv``, bodies ``nbody``) its
-    segment: among the segments of its bucket whose body it ``touches[nbody, seg_body]``,
-    those it has crossed, -seg_depth[s] < g < -tol, with its closest point at most
-    ``tol`` from the foot of the normal (inside the face), and approaches,
-    (v_n - v_c).n < 0; of those the nearest, ties to the smaller segment key (the same
-    on any rank count). A node on the edge of the face it hits lies in the plane of the
-    side face too (g = 0 there, to round-off, and no approach): the tolerance and the
-    approach keep it off the side face. ``pair_seg[n]``: the segment index or -1;
-    ``pair_geo[n]``: xi, eta, n (3), g. Returns the number of pairs."""
-    out, phi = np.empty(5), np.empty(4)
+    Of those the nearest, ties to the smaller segment key (the same on any rank count),
+    unless a face the node has not crossed, tol < g < seg_depth[s] with its foot inside,
+    is nearer still: then the node is outside that face's element, on the surface of the
+    other body, and no pair is made (a node on the bottom edge of a block lies inside the
+    plane of the block's side faces, by up to their width, without being in the block;
+    the approach test used to keep such nodes off, and does not since a node that does
+    not approach is also corrected). A node on the edge of the face it hits lies in the
+    plane of the side face too (g = 0 there, to round-off): the tolerance keeps it off
+    the side face. ``pair_seg[n]``: the segment index or -1; ``pair_geo[n]``: xi, eta,
+    n (3), g. Returns the number of pairs."""
+    out, before = np.empty(5), np.empty(5)
     n_pairs = 0
     for n in range(len(nx)):
         pair_seg[n] = -1
@@ -72,17 +75,21 @@ def find_node_pairs(nx, nv, nbody, seg_x, seg_v, seg_body, seg_key, seg_depth, t
             if not touches[nbody[n], seg_body[s]]:
                 continue
             g, off = closest_point(seg_x[s], nx[n], out)
-            if g >= -tol or g <= -seg_depth[s] or off > tol:
-                continue
-            if relative_normal_speed(nv[n], seg_v[s], out[0], out[1], out[2:5], phi) >= 0.0:
+            if off > tol or g >= seg_depth[s] or -tol <= g <= tol \
+                    or g <= -(seg_depth[s] + nmove[n] + seg_move[s]):
                 continue
             dist = g * g + off * off
-            if nearer(dist, seg_key[s], best, best_key, TIE * tol * tol):
-                best, best_key = dist, seg_key[s]
-                pair_seg[n] = s
-                for c in range(5):
-                    pair_geo[n, c] = out[c]
-                pair_geo[n, 5] = g
+            if not nearer(dist, seg_key[s], best, best_key, TIE * tol * tol):
+                continue
+            if g < 0.0:
+                g0, _ = closest_point(seg_x0[s], nx0[n], before)
+                if g0 <= -seg_depth[s]:
+                    continue
+            best, best_key = dist, seg_key[s]
+            pair_seg[n] = s if g < 0.0 else -1      # a nearer face not crossed: none
+            for c in range(5):
+                pair_geo[n, c] = out[c]
+            pair_geo[n, 5] = g
         if pair_seg[n] >= 0:
             n_pairs += 1
     return n_pairs
@@ -100,7 +107,9 @@ def node_impulse(inv_ms, v_s, v_nodes, lent_inv_m, phi, n, g, mu, dt, impulse):
     The tangential part sticks, u_t m, capped at mu times the normal part (Coulomb).
     Returns m times the depth left after the landing, max(0, -(g + dt d)) (0 unless
     the node was inside the face at the start of the step): the position impulse that
-    would put the node back on the face; -1 when no impulse acts."""
+    would put the node back on the face. A pair that does not approach takes no impulse
+    but returns m times its whole depth -g (a node left inside is moved out whether or
+    not it approaches); -1 when neither side can move (two rigid or held sides)."""
     inv_m = inv_ms
     for j in range(4):
         inv_m += phi[j] * lent_inv_m[j]
@@ -111,9 +120,11 @@ def node_impulse(inv_ms, v_s, v_nodes, lent_inv_m, phi, n, g, mu, dt, impulse):
             vc += phi[j] * v_nodes[j, d]
         rel[d] = v_s[d] - vc
     approach = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
-    if approach >= 0.0 or inv_m <= 0.0:
-        impulse[:] = 0.0
+    impulse[:] = 0.0
+    if inv_m <= 0.0:
         return -1.0
+    if approach >= 0.0:
+        return max(0.0, -g) / inv_m
     lift = min(-approach, -g / dt)
     normal = -lift / inv_m                        # along n; negative: C is pushed in
     tangent_norm = 0.0
@@ -132,8 +143,8 @@ def node_impulse(inv_ms, v_s, v_nodes, lent_inv_m, phi, n, g, mu, dt, impulse):
 def node_pair_impulses(pair_n, pair_s, pair_geo, lent_inv_ms, v, nbody, seg_v, seg_inv_m,
                        seg_body, friction, dt, impulses, depth):
     """``impulses[k]`` (3): the impulse on C of pair k (slave node ``pair_n[k]``, segment
-    ``pair_s[k]``), zero for a separating pair; ``depth[k]``: its residual depth times its mass (-1:
-    no impulse). ``lent_inv_ms`` per slave node Phi / m, ``seg_inv_m`` (ns, 4) per
+    ``pair_s[k]``), zero for a separating pair; ``depth[k]``: its residual depth times its
+    mass (-1: neither side can move). ``lent_inv_ms`` per slave node Phi / m, ``seg_inv_m`` (ns, 4) per
     segment node Phi_J / m_J: the inverses of the masses they lend a pair per unit
     weight (Phi: the sum of the node's weights over all its pairs, 1 as a slave, phi_J
     as a master node)."""

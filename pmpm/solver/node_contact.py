@@ -21,20 +21,30 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
   ``SurfaceContact.refresh_faces`` finds them.
 * Search, every step, at the trial positions (the nodes have moved, x^(k+1) =
   x^k + dt v^(k+1/2)): the buckets of particle-to-surface contact, each face entered in
-  the buckets of its box grown by its depth (half its element's size) and a small
-  tolerance; per slave node the nearest face it has crossed, -depth < g < 0, its foot
-  inside the face, that it approaches (pmpm.kernels.node_contact.find_node_pairs).
+  the buckets of its box grown by its depth (half its element's size), a small
+  tolerance and how far nodes moved in the step; per slave node the nearest face it has
+  crossed, g < 0, its foot inside the face, approaching it or not, no deeper than the
+  face's depth plus what node and face moved in the step (a node that crossed faster
+  than the depth is deep is still found), and within the face's depth of it at the
+  step's start (the far faces of a body, and a face that a node crossing a thin body
+  reaches from behind, are not taken: pmpm.kernels.node_contact.find_node_pairs).
+  Before issue 24 Sec. 4 only approaching nodes within the depth were found: a node
+  left inside that no longer approached stayed there, and one that crossed more than
+  the depth in a step went through unseen.
 * Impulse (pmpm.kernels.node_contact.node_impulse): for an approaching pair the normal
   impulse raises the relative normal velocity by min(-u.n, -g/dt), so the node lands on
   the face at the end of the step (a pair found at a distance in particle contact would
   stop early; a node that is met only when it crosses is not); the tangent sticks up to
   mu times the normal impulse. The slave takes -I on its velocity, each node J of the
   face phi_J I; the positions move by dt times the velocity changes. A node left inside
-  by the Jacobi pass (rare) is moved out by GAP_CLOSURE of its depth, by a position
-  impulse shared like the impulse (the mass-weighted mean position is kept).
+  by the Jacobi pass (rare), or inside a face it does not approach, is moved out by
+  GAP_CLOSURE of its depth, by a position impulse shared like the impulse (the
+  mass-weighted mean position is kept). ``largest_penetration``: the deepest node of the
+  step (trial positions, before the correction); ``deepest_node``: of the run, over all
+  ranks (summary.json ``node_contact.largest_penetration``).
 * Mass sharing: a node lends each of its pairs the share w / Phi of its mass, w its
   weight in the pair (1 as the slave, phi_J as a master node) and Phi the sum of its
-  weights over all approaching pairs. Two meshes that match node for node meet as two
+  weights over all its pairs. Two meshes that match node for node meet as two
   pairs per node pair (A's node on B's face, B's node on A's face), each with half of
   each node's mass: together they make the full stick impulse of the two nodes, as a
   single pass would. Momentum is exact: every impulse on a slave is taken by the
@@ -42,8 +52,9 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
 
 MPI: elements live on the rank of their centroid's slab; a node is held by every rank
 holding one of its elements. Each step every rank sends copies of its master faces whose
-box, grown by the face's depth, meets the box of another rank's slave nodes (one
-allgather of boxes, one all-to-all of faces); each pair is computed on the rank that
+box, grown by the face's depth and its nodes' move, meets the box of another rank's
+slave nodes grown by their move (one allgather of boxes, one all-to-all of faces);
+each pair is computed on the rank that
 counts its slave node. The Phi sums go to each node's lowest holder and back, and the
 rows of the impulses (slave and master nodes alike) to every holder of the node, all
 summed in (node id, slave node id) order (pmpm.solver.contact_sums): every copy of a
@@ -72,7 +83,7 @@ DEPTH_SHARE = 0.5
 #: face (in its plane) it may lie (round-off: a node on a face's edge lies in the plane
 #: of the side face too)
 TOLERANCE = 1e-10
-SEGMENT_FIELDS = ("gid", "x", "v", "inv_m", "body", "key", "holders", "depth")
+SEGMENT_FIELDS = ("gid", "x", "x0", "v", "inv_m", "body", "key", "holders", "depth")
 
 
 def node_contact_pairs(rules, fem_bodies, rigid):
@@ -127,7 +138,8 @@ class NodeContact(Coupling):
         self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
         self.friction = np.ascontiguousarray(rules.friction, np.float64)
         self.off_tol = TOLERANCE * grid.h
-        self.last_pairs = 0
+        self.last_pairs, self.largest_penetration, self.deepest = 0, 0.0, 0.0
+        self.start_x = None
         self.refresh_faces()
 
     @property
@@ -174,21 +186,25 @@ class NodeContact(Coupling):
 
     def own_segments(self):
         fem, nodes = self.elements, self.face_nodes
-        return {"gid": self.face_gid, "x": fem.x[nodes], "v": fem.v[nodes],
+        return {"gid": self.face_gid, "x": fem.x[nodes], "x0": self.start_x[nodes],
+                "v": fem.v[nodes],
                 "inv_m": self.face_inv_m, "body": self.face_body, "key": self.face_key,
                 "holders": self.face_holders, "depth": self.face_depth}
 
     def with_halo(self, own):
         """Own segments plus copies of the other ranks' segments whose box, grown by
-        their depth, meets the box of this rank's slave nodes (collective)."""
+        their depth and how far their nodes moved in the step, meets the box of this
+        rank's slave nodes grown by how far those moved (collective)."""
         if self.world.size == 1:
             return own
         x = self.elements.x[self.slaves]
-        box = (x.min(axis=0), x.max(axis=0)) if len(x) else \
+        grow = self.slave_moves().max(initial=0.0)
+        box = (x.min(axis=0) - grow, x.max(axis=0) + grow) if len(x) else \
             (np.full(3, np.inf), np.full(3, -np.inf))
         boxes = self.world.allgather(box)
         lo, hi = np.empty((len(own["x"]), 3)), np.empty((len(own["x"]), 3))
-        knc.segment_boxes(own["x"], own["depth"] + self.off_tol, lo, hi)
+        knc.segment_boxes(own["x"], own["depth"] + self.off_tol
+                          + segment_moves(own["x"], own["x0"]), lo, hi)
         packages = []
         for r, (b_lo, b_hi) in enumerate(boxes):
             going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != self.world.rank)
@@ -197,6 +213,16 @@ class NodeContact(Coupling):
                                SEGMENT_FIELDS)
 
     # -- the step ---------------------------------------------------------------------
+    def after_scatter(self, grids, kinds):
+        """Keep the nodes' start-of-step positions: the search tells from them on which
+        side of a face a node that is now behind it was."""
+        self.start_x = self.elements.x.copy()
+
+    def slave_moves(self):
+        """How far each slave node moved in the step so far."""
+        fem = self.elements
+        return np.linalg.norm(fem.x[self.slaves] - self.start_x[self.slaves], axis=1)
+
     def after_update_points(self, dt):
         segs = self.with_halo(self.own_segments())
         pair_n, pair_s, geo = self.find_pairs(segs)
@@ -212,16 +238,27 @@ class NodeContact(Coupling):
         shifts = GAP_CLOSURE * np.maximum(depth, 0.0)[:, None] * geo[:, 2:5]
         self.push_nodes(segs, pair_n, pair_s, phi, impulses, shifts, dt)
         self.last_pairs = int(np.count_nonzero(depth >= 0.0))
+        self.largest_penetration = float(-geo[:, 5].min()) if len(geo) else 0.0
+        self.deepest = max(self.deepest, self.largest_penetration)
+
+    def deepest_node(self):
+        """The deepest slave node found behind a master face so far in the run (at the
+        trial positions, before the correction), over all ranks (collective)."""
+        return self.world.max(self.deepest)
 
     def find_pairs(self, segs):
         """(local slave node index, segment index, geometry (xi, eta, n, g)) of every
-        slave node that has crossed a master face while approaching it."""
+        slave node that has crossed a master face, approaching it or not; each face's box
+        is grown by its depth plus the farthest any slave node here and any of its nodes
+        moved in the step (kernel ``find_node_pairs``)."""
         fem = self.elements
         if not len(segs["key"]) or not len(self.slaves):
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
-        x = np.ascontiguousarray(segs["x"])
+        x, x0 = np.ascontiguousarray(segs["x"]), np.ascontiguousarray(segs["x0"])
+        seg_move, node_move = segment_moves(x, x0), self.slave_moves()
         seg_lo, seg_hi = np.empty((len(x), 3)), np.empty((len(x), 3))
-        knc.segment_boxes(x, segs["depth"] + self.off_tol, seg_lo, seg_hi)
+        knc.segment_boxes(x, segs["depth"] + self.off_tol + seg_move + node_move.max(),
+                          seg_lo, seg_hi)
         lo = seg_lo.min(axis=0)
         edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
         extent = seg_hi.max(axis=0) - lo
@@ -230,9 +267,9 @@ class NodeContact(Coupling):
         start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
         nx = np.ascontiguousarray(fem.x[self.slaves])
         pair_seg, geo = np.empty(len(nx), np.int64), np.empty((len(nx), 6))
-        knc.find_node_pairs(nx, np.ascontiguousarray(fem.v[self.slaves]),
-                            self.node_body[self.slaves], x, np.ascontiguousarray(segs["v"]),
-                            segs["body"], segs["key"], np.ascontiguousarray(segs["depth"]),
+        knc.find_node_pairs(nx, np.ascontiguousarray(self.start_x[self.slaves]), node_move,
+                            self.node_body[self.slaves], x, x0, seg_move, segs["body"],
+                            segs["key"], np.ascontiguousarray(segs["depth"]),
                             self.touches, self.off_tol, lo, 1.0 / size, dims, start,
                             items, pair_seg, geo)
         found = np.flatnonzero(pair_seg >= 0)
@@ -240,7 +277,7 @@ class NodeContact(Coupling):
 
     def phi_sums(self, segs, pair_n, pair_s, phi):
         """Per pair its slave node's Phi, and (ns, 4) per segment node its Phi: the sum
-        of the node's weights over the approaching pairs of all ranks (1 as a slave,
+        of the node's weights over the pairs of all ranks (1 as a slave,
         phi_J as a master node; 0 where it has none), summed on the node's lowest
         holder in (node id, slave node id) order."""
         fem = self.elements
@@ -281,6 +318,13 @@ class NodeContact(Coupling):
         fem.v += total[:, 0] / fem.mass[:, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before) + total[:, 1] / fem.mass[:, None]
+
+
+def segment_moves(seg_x, seg_x0):
+    """Per segment the farthest any of its nodes moved in the step."""
+    moves = np.empty(len(seg_x))
+    ksc.segment_moves(np.ascontiguousarray(seg_x), np.ascontiguousarray(seg_x0), moves)
+    return moves
 
 
 def lookup(ids, total, wanted):

@@ -176,6 +176,8 @@ class Simulation:
         sim.decomposition.lost = scalars.get("lost", 0)
         if sim.surface:
             sim.surface.deepest = scalars.get("surface_deepest", 0.0)
+        if sim.node_contact:
+            sim.node_contact.deepest = scalars.get("node_deepest", 0.0)
         for name in ("lost_count", "lost_mass"):
             if name in scalars:
                 getattr(sim.decomposition, name)[:] = scalars[name]
@@ -222,14 +224,16 @@ class Simulation:
 
     def restart_state(self):
         """What a checkpoint keeps beyond the points' columns (collective: the deepest
-        centre of surface contact is reduced over the ranks)."""
+        centres and nodes of the contacts are reduced over the ranks)."""
         return {"slab_axis": self.slabs.axis, "slab_bounds": self.slabs.bounds.tolist(),
                 "fastest": self.stepper.fastest, "lost": int(self.lost),
                 "lost_count": self.decomposition.lost_count.tolist(),
                 "lost_mass": self.decomposition.lost_mass.tolist(),
                 "refine": self.refiner.state(),
                 "convert": self.conversion.state() if self.conversion else None,
-                "surface_deepest": self.surface.deepest_centre() if self.surface else 0.0}
+                "surface_deepest": self.surface.deepest_centre() if self.surface else 0.0,
+                "node_deepest": self.node_contact.deepest_node() if self.node_contact
+                else 0.0}
 
     def checkpoint_groups(self):
         """The row sets a checkpoint keeps beside the particles (FEM bodies), or None."""
@@ -253,13 +257,18 @@ class Simulation:
 
     # -- what the outputs ask, over every body kind ------------------------------------
     def contact_summary(self):
-        """With particle-to-surface contact: ``surface_contact.largest_penetration``, the
-        deepest any particle centre was found behind the face of its pair (approaching or
-        not, before the correction) over the run and all ranks, in the case's length unit
-        (collective)."""
-        if not self.surface:
-            return {}
-        return {"surface_contact": {"largest_penetration": self.surface.deepest_centre()}}
+        """With particle-to-surface contact ``surface_contact.largest_penetration``, the
+        deepest any particle centre was found behind the face of its pair; with
+        node-to-surface contact ``node_contact.largest_penetration``, the deepest any FE
+        node was found behind a face of another body: approaching or not, at the trial
+        positions before the correction, over the run and all ranks, in the case's
+        length unit (collective)."""
+        out = {}
+        if self.surface:
+            out["surface_contact"] = {"largest_penetration": self.surface.deepest_centre()}
+        if self.node_contact:
+            out["node_contact"] = {"largest_penetration": self.node_contact.deepest_node()}
+        return out
 
     def energies(self):
         """Kinetic, internal (the elements' hourglass energy included) and total energy
