@@ -144,8 +144,8 @@ def node_pair_impulses(pair_n, pair_s, pair_geo, lent_inv_ms, v, nbody, seg_v, s
                        seg_body, friction, dt, impulses, depth):
     """``impulses[k]`` (3): the impulse on C of pair k (slave node ``pair_n[k]``, segment
     ``pair_s[k]``), zero for a separating pair; ``depth[k]``: its residual depth times its
-    mass (-1: neither side can move). ``lent_inv_ms`` per slave node Phi / m, ``seg_inv_m`` (ns, 4) per
-    segment node Phi_J / m_J: the inverses of the masses they lend a pair per unit
+    mass (-1: neither side can move). ``lent_inv_ms`` per slave node Phi / m,
+    ``seg_inv_m`` (ns, 4) per segment node Phi_J / m_J: the inverses of the masses they lend a pair per unit
     weight (Phi: the sum of the node's weights over all its pairs, 1 as a slave, phi_J
     as a master node)."""
     phi = np.empty(4)

@@ -11,20 +11,33 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
   FEM bodies a particle body meets with SURFACE_COUPLING; the particles are the slaves.
   Rigid particle bodies take no part.
 * Global search (Eqs. 33-35), every step: each segment is entered in the buckets its box,
-  inflated by ``reach`` (twice the largest particle half-spacing), overlaps; a particle
-  looks only at the segments of its own bucket. Nothing is missed: a segment the particle
-  can touch (below) has the particle inside its inflated box.
+  inflated by ``reach`` (twice the largest particle half-spacing) plus the farthest any
+  particle of the rank and any face node moved in the step, overlaps; a particle looks
+  only at the segments of its own bucket. Nothing is missed: a segment the particle can
+  touch or have got behind (below) has the particle inside its inflated box.
 * Local search (Eqs. 36-41): the closest point of the bilinear face by Newton, the
   outward normal n and the gap g = n.(x_p - r_c) at the trial positions.
 * Contact rule: the particle is a sphere of half its spacing r_p = vol0^(1/3) / 2; it is
-  in contact with the nearest face for which -r_p < g < r_p and the closest point lies
-  within r_p of the foot of the normal, and the pair is corrected only when it approaches,
-  (v̄_p - v̄_c).n < 0. The velocity constraint stops the approach but does not undo a
-  depth already reached (positions follow the grid velocities, which the constraint does
-  not see), so a pair whose particle centre is inside (g < 0) also moves the particle's
-  position out by GAP_CLOSURE of that depth per step (the notes' gap closure, done on the
-  position only: as a velocity it made a resting sphere bounce). Tests check that the
-  centres stay out of the plate, hit at 2 m/s or sliding on it under gravity.
+  in contact with the nearest face for which g < r_p, the closest point lies within r_p
+  of the foot of the normal, and its centre is on the face's side: at most r_p plus what
+  particle and face moved in the step behind it (a centre that was out cannot skip this
+  window in one step, however fast), and not deeper than r_p behind the face at the
+  start of the step (from the start-of-step positions kept by ``after_scatter``: the
+  far faces of the body, and a face that a centre crossing a thin body reaches from
+  behind, are not taken). Only a pair that approaches, (v̄_p - v̄_c).n < 0, takes an
+  impulse. The velocity constraint stops the approach but does not undo a depth already
+  reached (positions follow the grid velocities, which the constraint does not see), so
+  every pair whose centre is inside (g < 0), approaching or not, also moves the
+  particle's position out along n (:func:`closure`): by GAP_CLOSURE of a depth within
+  r_p (the notes' gap closure, done on the position only: as a velocity it made a
+  resting sphere bounce), and onto the face from a deeper one. Before issue 24 Sec. 4
+  only approaching pairs with -r_p < g were found: a centre inside a face it no longer
+  approached stayed there, and one that crossed more than r_p in a step went through
+  unseen (tests/test_surface_contact_search.py). Tests check that the centres stay out
+  of the plate, hit at 2 m/s or sliding on it under gravity, or at 20 m/s thrown at a
+  plate thinner than a step's move. ``largest_penetration``: the deepest centre of the
+  step (at the trial positions, before any correction); :meth:`deepest_centre`: of the
+  run, over all ranks (summary.json ``surface_contact.largest_penetration``).
 * Impulse (Eqs. 42-53): the stick impulse with Coulomb's cap (pmpm.kernels.
   surface_contact.pair_impulse). The particle takes -I on its velocity and dt (-I)/m_p on
   its position (the notes' option (b)); each FE node J of the face takes phi_J I on its
@@ -50,8 +63,9 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
 
 MPI: elements (and so segments) live on the rank of their centroid's slab, particles on
 the rank of their position's slab. Each step a rank sends copies of its segments whose
-box, inflated by ``reach`` and one cell (particles move less than a cell before they
-migrate), overlaps another rank's slab to that rank (a halo; no global gather). Each pair
+box, inflated by ``reach`` and two cells (particles move less than a cell before they
+migrate, and a centre gets less than a cell further behind a face in a step), overlaps
+another rank's slab to that rank (a halo; no global gather). Each pair
 is computed on the particle's owner. The phi sums Phi_J of nodes go to the node's lowest
 holder, summed there in (node id, particle id) order, and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
