@@ -116,3 +116,18 @@ def test_summary_json_carries_the_deepest_centre(tmp_path):
     run(sim, 0.005, cfl=0.9)
     deepest = summary["surface_contact"]["largest_penetration"]
     assert abs(deepest - sim.surface.deepest) < 1e-12 and 0.009 < deepest < 0.0095
+
+
+def test_a_restart_keeps_the_deepest_centre(tmp_path):
+    """Stopped at 2 ms (after the 9.3 mm of the first step) and continued from the
+    checkpoint to 5 ms: the summary's deepest centre is the uninterrupted run's (the
+    checkpoint keeps it)."""
+    from clihelp import run_ok
+    from pmpm.io.summary import read_summary
+    whole, split = tmp_path / "whole", tmp_path / "split"
+    run_ok([CASE, "--out", whole, "--quiet"])
+    run_ok([CASE, "--out", split, "--quiet", "--set", "time.end=0.002"])
+    run_ok([CASE, "--out", split, "--quiet", "--restart"])
+    deepest = [read_summary(out)["surface_contact"]["largest_penetration"]
+               for out in (whole, split)]
+    assert deepest[0] == deepest[1] > 0.009
