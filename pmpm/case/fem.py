@@ -73,8 +73,10 @@ FEM = {
                          "modes resisted by the strain energy of an assumed strain field "
                          "in the element's corotational frame (Belytschko-Bindeman style, "
                          "pmpm.fem.assumed_strain): exact in pure bending of a rectangular "
-                         "element, a cantilever within 1 % at two elements through its "
-                         "thickness; its hourglass stiffness stays elastic when the "
+                         "element, a cantilever's first peak within 2 % of beam theory with "
+                         "one or two elements through its thickness "
+                         "(docs/validation/fem_bending.md), at 1.2 times the reduced "
+                         "element's cost; its hourglass stiffness stays elastic when the "
                          "material yields, and it takes no `hourglass` or "
                          "`hourglass_coefficient`"),
     "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
