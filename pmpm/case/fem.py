@@ -79,10 +79,11 @@ FEM = {
                          "element's cost; its hourglass stiffness stays elastic when the "
                          "material yields, and it takes no `hourglass` or "
                          "`hourglass_coefficient`"),
-    "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
+    "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), OMIT,
                        doc="Flanagan-Belytschko hourglass control of the one-point "
-                           "elements (element `reduced`): `stiffness` resists the hourglass displacement "
-                           "(elastic plates, slow loading), `viscous` its rate (impact)"),
+                           "elements (element `reduced`; left out: `stiffness`): "
+                           "`stiffness` resists the hourglass displacement (elastic "
+                           "plates, slow loading), `viscous` its rate (impact)"),
     "hourglass_coefficient": Field(number(at_least(0), at_most(MAX_HOURGLASS)), OMIT, "1",
                                    "the hourglass coefficient k (left out: 0.05 for "
                                    "stiffness, 0.1 for viscous): viscous Q = k rho c "
@@ -140,15 +141,19 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
 
 def check_element(fem, path, problems):
     """An assumed_strain element takes its hourglass stiffness from its material: an
-    hourglass_coefficient given with it would be ignored, so it is refused."""
-    if valid(fem, "element") and fem["element"] == "assumed_strain" \
-            and "hourglass_coefficient" in fem:
-        problems.add(join(join(path, "fem"), "hourglass_coefficient"),
-                     "the assumed_strain element takes its hourglass stiffness from its "
-                     "material; hourglass_coefficient is for element 'reduced'")
+    hourglass form or coefficient given with it would be ignored, so it is refused."""
+    if not (valid(fem, "element") and fem["element"] == "assumed_strain"):
+        return
+    for key in ("hourglass", "hourglass_coefficient"):
+        if key in fem:
+            problems.add(join(join(path, "fem"), key),
+                         f"the assumed_strain element takes its hourglass stiffness from "
+                         f"its material; {key} is for element 'reduced'")
 
 
 def complete_fem(fem, grid):
+    if valid(fem, "element") and fem["element"] == "reduced":
+        fem.setdefault("hourglass", "stiffness")
     if valid(fem, "hourglass"):
         fem.setdefault("hourglass_coefficient", HOURGLASS_DEFAULTS[fem["hourglass"]])
     if "element_size" not in fem and valid(grid, "cell"):
