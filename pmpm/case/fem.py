@@ -76,9 +76,10 @@ FEM = {
                          "element, a cantilever's first peak within 2 % of beam theory with "
                          "one or two elements through its thickness "
                          "(docs/validation/fem_bending.md), at 1.2 times the reduced "
-                         "element's cost; its hourglass stiffness stays elastic when the "
-                         "material yields, and it takes no `hourglass` or "
-                         "`hourglass_coefficient`"),
+                         "element's cost; its hourglass stiffness takes the material's "
+                         "elastic moduli, the shear modulus scaled by the elastic share of "
+                         "the strain increment in a step where the element yields; it "
+                         "takes no `hourglass` or `hourglass_coefficient`"),
     "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), OMIT,
                        doc="Flanagan-Belytschko hourglass control of the one-point "
                            "elements (element `reduced`; left out: `stiffness`): "

@@ -35,8 +35,11 @@ motions give no hourglass force on any hexahedron). Their rates in the local fra
 update the generalized forces ``Q_ai += dt K q'_ai``, kept in the local frame (so they
 turn with the element), and the nodes take ``f_I = -sum_a gamma_aI R Q_a / 8``. The
 moduli are the material's elastic ones at the step (``rho c^2 = lam + 2 mu``, mu its
-shear modulus): the hourglass part stays elastic when the material yields (the mean
-stress carries the plasticity), as in the codes that use this stabilisation. On a
+shear modulus), except that in a step where the element yields mu is scaled by the
+elastic share of the step's deviatoric strain increment (:func:`elastic_fraction`, at
+the same bulk modulus): with the elastic mu a yielding element's hourglass modes held
+a Taylor bar's foot from spreading (14.9 mm against the experiment's 16.2). The Q
+already stored are not returned to a yield surface. On a
 distorted element the frame and half-lengths are those of the centre Jacobian: the
 stiffness is then that of the rectangular element of the same centre Jacobian.
 
@@ -80,14 +83,36 @@ def element_frame(xe, frame, half):
 
 
 @njit(cache=True, inline="always")
-def plate_moduli(rho, c, shear):
+def plate_moduli(rho, c, shear, ratio):
     """(lam + 2 mu, mu, D1, D2) from the step's rho c^2 = lam + 2 mu and the shear
-    modulus mu: D1 = E / (1 - nu^2) the plate modulus, D2 = nu D1 (lam taken as 0 where
-    rho c^2 < 2 mu, as in pmpm.fem.stability)."""
+    modulus: D1 = E / (1 - nu^2) the plate modulus, D2 = nu D1 (lam taken as 0 where
+    rho c^2 < 2 mu, as in pmpm.fem.stability). ``ratio`` < 1 (a yielding step,
+    :func:`elastic_fraction`) scales mu down at the same bulk modulus."""
     mu = shear
     lam = max(rho * c * c - 2.0 * mu, 0.0)
+    if ratio < 1.0:
+        bulk = lam + 2.0 * mu / 3.0
+        mu *= ratio
+        lam = bulk - 2.0 * mu / 3.0
     inv = fdiv(1.0, lam + 2.0 * mu)
     return lam + 2.0 * mu, mu, 4.0 * mu * (lam + mu) * inv, 2.0 * mu * lam * inv
+
+
+@njit(cache=True, inline="always")
+def elastic_fraction(Lg, dt, deps_p):
+    """The share of the step's deviatoric strain increment that the material took
+    elastically, 1 - sqrt(3/2) d eps_p / |dev(D) dt| (at least 0): 1 in an elastic step,
+    near 0 in a plastic one, so that the hourglass modes of a yielding element are not
+    held by the elastic moduli (they would keep a Taylor bar's foot from spreading)."""
+    if not deps_p > 0.0:
+        return 1.0
+    tr = (Lg[0, 0] + Lg[1, 1] + Lg[2, 2]) / 3.0
+    sq = 0.0
+    for i in range(3):
+        for j in range(3):
+            d = 0.5 * (Lg[i, j] + Lg[j, i]) - (tr if i == j else 0.0)
+            sq += d * d
+    return max(1.0 - np.sqrt(1.5) * deps_p * fdiv(1.0, np.sqrt(sq) * dt), 0.0)
 
 
 @njit(cache=True, inline="always")

@@ -35,7 +35,8 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from ..materials.tensors import fdiv
 from ..materials.layout import G
-from .assumed_strain import assumed_strain_forces, element_frame, plate_moduli
+from .assumed_strain import (assumed_strain_forces, elastic_fraction, element_frame,
+                             plate_moduli)
 from .hexahedron import hourglass_shapes, largest_face_area, mean_gradient
 from .stability import ASSUMED_STRAIN, STIFFNESS, VISCOUS, stable_rate
 
@@ -105,6 +106,7 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
                 for k in range(8):
                     s += ve[k, i] * b[k, j]
                 Lg[i, j] = s * inv_volume
+        eps_old = eps_p[e]
         c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
                                   eps_p, e_int, temp, q)
         if not c >= 0.0:
@@ -120,8 +122,10 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
                                      Lg[0, 0] + Lg[1, 1] + Lg[2, 2], half))
         if hg_kind[bb] == ASSUMED_STRAIN:
             hg_energy[e] += assumed_strain_forces(
-                e, ve, gamma, volume, plate_moduli(rho[e], c, params[bb][G]), frame, half,
-                dt, resist, qd, dq, fe)
+                e, ve, gamma, volume,
+                plate_moduli(rho[e], c, params[bb][G],
+                             elastic_fraction(Lg, dt, eps_p[e] - eps_old)),
+                frame, half, dt, resist, qd, dq, fe)
         else:
             if hg_kind[bb] == STIFFNESS:
                 rotate_resistance(resist, e, Lg, dt)

@@ -100,7 +100,7 @@ def stable_rate(b, gamma, volume, length, rho, c, prm, hg_kind, hg_k, div, half)
     if hg_kind == STIFFNESS:
         omega2 += 8.0 * hg_k * c * c * s * g * inv_v2 / 3.0
     elif hg_kind == ASSUMED_STRAIN:
-        omega2 += assumed_strain_omega2(half, volume, rho, plate_moduli(rho, c, shear), g)
+        omega2 += assumed_strain_omega2(half, volume, rho, plate_moduli(rho, c, shear, 1.0), g)
     else:
         eta += 2.0 * hg_k * c * g * fdiv(1.0, np.cbrt(volume))
     return 0.5 * (0.5 * eta + np.sqrt(omega2 + 0.25 * eta * eta))
