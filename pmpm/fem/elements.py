@@ -19,8 +19,8 @@ Per element and step, from the nodal positions ``x`` and the half-step velocitie
    (viscous: dissipated; stiffness: stored, as a trapezoid; its Q_a turn with the
    element's spin, :func:`rotate_resistance`); or, for the ``assumed_strain`` element
    (kind ASSUMED_STRAIN), the physical hourglass stiffness of
-   :mod:`pmpm.fem.assumed_strain` in the element's corotational frame. The element's stable step includes
-   the hourglass stiffness, the viscous forces and the bulk viscosity
+   :mod:`pmpm.fem.assumed_strain` in the element's corotational frame. The element's
+   stable step includes the hourglass stiffness, the viscous forces and the bulk viscosity
    (:mod:`pmpm.fem.stability`, issue 27: the step L_e / c of before was 36 % too long on
    a cube at Poisson's ratio 0.3, and an FEM plate at cfl 0.95 grew its energy 7,500
    times).

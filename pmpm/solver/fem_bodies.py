@@ -33,8 +33,9 @@ import numpy as np
 
 from ..comm.shared_nodes import exchange_objects, sum_shared_rows
 from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
-                            NON_POSITIVE_VOLUME, ElementMesh, Hourglass, advance_positions, advance_velocities,
-                            element_forces, external_forces, lumped_masses)
+                            NON_POSITIVE_VOLUME, ElementMesh, Hourglass, advance_positions,
+                            advance_velocities, element_forces, external_forces,
+                            lumped_masses)
 from ..fem.hexahedron import FACES, element_volumes
 from ..fem.stability import mesh_rate
 from ..kernels.records import BodyMaterials
