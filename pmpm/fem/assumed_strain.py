@@ -25,7 +25,8 @@ the rest by symmetry), falls into independent blocks (W = V / 3):
   Pure bending of a rectangular element is then exact for any nu, and a beam whose
   section is free to contract (the fibre across, j, left free) takes E;
 * twist (u_x = eta zeta, u_y = xi zeta, u_z = xi eta): shear strains only, exact,
-  ``mu W |B t|^2`` with ``B t = (t0/l1 + t1/l0, t0/l2 + t2/l0, t1/l2 + t2/l1)``;
+  the stiffness ``mu W B^T B`` with ``B t = (t0/l1 + t1/l0, t0/l2 + t2/l0,
+  t1/l2 + t2/l1)`` the three shear strains' amplitudes;
 * the xi eta zeta mode of u_i: ``(W / 3) ((lam + 2 mu)/l_i^2 + mu/l_j^2 + mu/l_k^2)``.
 
 The generalized coordinates are ``q_ai = gamma_a . u_i / 8`` (gamma_a the
@@ -39,8 +40,7 @@ shear modulus), except that in a step where the element yields mu is scaled by t
 elastic share of the step's deviatoric strain increment (:func:`elastic_fraction`, at
 the same bulk modulus): with the elastic mu a yielding element's hourglass modes held
 a Taylor bar's foot from spreading (14.9 mm against the experiment's 16.2). The Q
-already stored are not returned to a yield surface. On a
-distorted element the frame and half-lengths are those of the centre Jacobian: the
+already stored are not returned to a yield surface. On a distorted element the frame and half-lengths are those of the centre Jacobian: the
 stiffness is then that of the rectangular element of the same centre Jacobian.
 
 Each helper is inlined into its caller (``inline="always"``) and fills arrays it is
