@@ -70,12 +70,14 @@ def test_a_rotated_box_mesh_has_positive_elements_and_the_box_volume():
 def test_hourglass_coefficient_defaults_follow_the_form(tmp_path):
     geometry = {"type": "box", "min": [0, 0, 0], "max": [2, 2, 2]}
     case = load_case(write_case(tmp_path, case_tree(geometry)))
-    assert case["bodies"][0]["fem"] == {"element_size": 1.0, "hourglass": "stiffness",
+    assert case["bodies"][0]["fem"] == {"element_size": 1.0, "element": "reduced",
+                                        "hourglass": "stiffness",
                                         "hourglass_coefficient": 0.05, "constraints": []}
     tree = case_tree(geometry)
     tree["bodies"][0]["fem"] = {"hourglass": "viscous"}
     case = load_case(write_case(tmp_path, tree, "viscous.yaml"))
-    assert case["bodies"][0]["fem"] == {"element_size": 1.0, "hourglass": "viscous",
+    assert case["bodies"][0]["fem"] == {"element_size": 1.0, "element": "reduced",
+                                        "hourglass": "viscous",
                                         "hourglass_coefficient": 0.1, "constraints": []}
 
 

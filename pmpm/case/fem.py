@@ -15,6 +15,8 @@ from .mesh import MeshReadError
 
 METHODS = ("particles", "fem")
 HOURGLASS_DEFAULTS = {"stiffness": 0.05, "viscous": 0.1}
+#: element formulations (pmpm.fem.elements, pmpm.fem.assumed_strain)
+ELEMENTS = ("reduced", "assumed_strain")
 #: the largest hourglass coefficient a case may give (pmpm.fem.stability)
 MAX_HOURGLASS = 0.5
 FEM_GEOMETRIES = ("box", "cylinder", "sphere", "ogive", "prism", "mesh")
@@ -63,10 +65,26 @@ FEM = {
                           "shank's, each section scaled out to its circle's area so the "
                           "rod keeps its mass (left out: grid.cell); a mesh file keeps "
                           "its own elements"),
-    "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), "stiffness",
+    "element": Field(choice(ELEMENTS, "element"), "reduced",
+                     doc="the hexahedron: `reduced`, one-point integration with the "
+                         "hourglass control below (its bending with one or two elements "
+                         "through a thickness is much too stiff or too soft); "
+                         "`assumed_strain`, one-point integration with the hourglass "
+                         "modes resisted by the strain energy of an assumed strain field "
+                         "in the element's corotational frame (Belytschko-Bindeman style, "
+                         "pmpm.fem.assumed_strain): exact in pure bending of a rectangular "
+                         "element, a cantilever's first peak within 2 % of beam theory with "
+                         "one or two elements through its thickness "
+                         "(docs/validation/fem_bending.md), at 1.2 times the reduced "
+                         "element's cost; its hourglass stiffness takes the material's "
+                         "elastic moduli, the shear modulus scaled by the elastic share of "
+                         "the strain increment in a step where the element yields; it "
+                         "takes no `hourglass` or `hourglass_coefficient`"),
+    "hourglass": Field(choice(tuple(HOURGLASS_DEFAULTS), "hourglass form"), OMIT,
                        doc="Flanagan-Belytschko hourglass control of the one-point "
-                           "elements: `stiffness` resists the hourglass displacement "
-                           "(elastic plates, slow loading), `viscous` its rate (impact)"),
+                           "elements (element `reduced`; left out: `stiffness`): "
+                           "`stiffness` resists the hourglass displacement (elastic "
+                           "plates, slow loading), `viscous` its rate (impact)"),
     "hourglass_coefficient": Field(number(at_least(0), at_most(MAX_HOURGLASS)), OMIT, "1",
                                    "the hourglass coefficient k (left out: 0.05 for "
                                    "stiffness, 0.1 for viscous): viscous Q = k rho c "
@@ -112,6 +130,7 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
         path = join("bodies", i)
         if valid(body, "name"):
             fem_names.add(body["name"])
+        check_element(body["fem"], path, problems)
         complete_fem(body["fem"], case["grid"])
         check_constraints(body, path, problems)
         if valid(body, "geometry"):
@@ -121,7 +140,21 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
         check_mixed_coupling(case, fem_names, problems)
 
 
+def check_element(fem, path, problems):
+    """An assumed_strain element takes its hourglass stiffness from its material: an
+    hourglass form or coefficient given with it would be ignored, so it is refused."""
+    if not (valid(fem, "element") and fem["element"] == "assumed_strain"):
+        return
+    for key in ("hourglass", "hourglass_coefficient"):
+        if key in fem:
+            problems.add(join(join(path, "fem"), key),
+                         f"the assumed_strain element takes its hourglass stiffness from "
+                         f"its material; {key} is for element 'reduced'")
+
+
 def complete_fem(fem, grid):
+    if valid(fem, "element") and fem["element"] == "reduced":
+        fem.setdefault("hourglass", "stiffness")
     if valid(fem, "hourglass"):
         fem.setdefault("hourglass_coefficient", HOURGLASS_DEFAULTS[fem["hourglass"]])
     if "element_size" not in fem and valid(grid, "cell"):

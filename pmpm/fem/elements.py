@@ -17,8 +17,10 @@ Per element and step, from the nodal positions ``x`` and the half-step velocitie
    ``Q_a += dt k rho c^2 (sum_I |b_I|^2) / (3 V) q_a`` (k the case's coefficient); the
    energy the hourglass forces take is added to the element's hourglass energy
    (viscous: dissipated; stiffness: stored, as a trapezoid; its Q_a turn with the
-   element's spin, :func:`rotate_resistance`). The element's stable step includes
-   the hourglass stiffness, the viscous forces and the bulk viscosity
+   element's spin, :func:`rotate_resistance`); or, for the ``assumed_strain`` element
+   (kind ASSUMED_STRAIN), the physical hourglass stiffness of
+   :mod:`pmpm.fem.assumed_strain` in the element's corotational frame. The element's
+   stable step includes the hourglass stiffness, the viscous forces and the bulk viscosity
    (:mod:`pmpm.fem.stability`, issue 27: the step L_e / c of before was 36 % too long on
    a cube at Poisson's ratio 0.3, and an FEM plate at cfl 0.95 grew its energy 7,500
    times).
@@ -32,10 +34,14 @@ from numba import njit
 
 from ..materials.kernels import update_stress_columns
 from ..materials.tensors import fdiv
+from ..materials.layout import G
+from .assumed_strain import (assumed_strain_forces, elastic_fraction, element_frame,
+                             plate_moduli)
 from .hexahedron import hourglass_shapes, largest_face_area, mean_gradient
-from .stability import STIFFNESS, VISCOUS, stable_rate
+from .stability import ASSUMED_STRAIN, STIFFNESS, VISCOUS, stable_rate
 
-#: hourglass forms (``Hourglass.kind``): VISCOUS, STIFFNESS (from pmpm.fem.stability)
+#: hourglass forms (``Hourglass.kind``) of the reduced element: VISCOUS, STIFFNESS (from
+#: pmpm.fem.stability); the assumed_strain element is the kind ASSUMED_STRAIN
 HOURGLASS_KINDS = {"viscous": VISCOUS, "stiffness": STIFFNESS}
 #: fault codes returned with the element index
 NO_FAULT, NON_POSITIVE_VOLUME, FAILED_UPDATE = 0, 1, 2
@@ -76,6 +82,7 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
     hg_kind, hg_coefficient, resist, hg_energy = hourglass     # unpacked before the loop
     xe, ve, b = np.empty((8, 3)), np.empty((8, 3)), np.empty((8, 3))
     gamma, fe, Lg = np.empty((4, 8)), np.empty((8, 3)), np.empty((3, 3))
+    frame, half, qd, dq = np.empty((3, 3)), np.ones(3), np.empty((4, 3)), np.empty((4, 3))
     rate, bad, why = 0.0, -1, NO_FAULT
     for e in range(hexes.shape[0]):
         bb = body[e]
@@ -99,6 +106,7 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
                 for k in range(8):
                     s += ve[k, i] * b[k, j]
                 Lg[i, j] = s * inv_volume
+        eps_old = eps_p[e]
         c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
                                   eps_p, e_int, temp, q)
         if not c >= 0.0:
@@ -107,13 +115,23 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
             continue
         stress_forces(stress, e, q[e], b, fe)
         hourglass_shapes(xe, b, inv_volume, gamma)
+        if hg_kind[bb] == ASSUMED_STRAIN:
+            element_frame(xe, frame, half)
         rate = max(rate, stable_rate(b, gamma, volume, length, rho[e], c, params[bb],
                                      hg_kind[bb], hg_coefficient[bb],
-                                     Lg[0, 0] + Lg[1, 1] + Lg[2, 2]))
-        if hg_kind[bb] == STIFFNESS:
-            rotate_resistance(resist, e, Lg, dt)
-        hg_energy[e] += hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho[e], c, dt,
-                                         hg_kind[bb], hg_coefficient[bb], resist, fe)
+                                     Lg[0, 0] + Lg[1, 1] + Lg[2, 2], half))
+        if hg_kind[bb] == ASSUMED_STRAIN:
+            hg_energy[e] += assumed_strain_forces(
+                e, ve, gamma, volume,
+                plate_moduli(rho[e], c, params[bb][G],
+                             elastic_fraction(Lg, dt, eps_p[e] - eps_old)),
+                frame, half, dt, resist, qd, dq, fe)
+        else:
+            if hg_kind[bb] == STIFFNESS:
+                rotate_resistance(resist, e, Lg, dt)
+            hg_energy[e] += hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho[e],
+                                             c, dt, hg_kind[bb], hg_coefficient[bb],
+                                             resist, fe)
         for k in range(8):
             n = hexes[e, k]
             for i in range(3):

@@ -17,6 +17,9 @@ hourglass shape vectors ``gamma_a`` (:mod:`pmpm.fem.hexahedron`):
 * the stiffness hourglass form ``Q_a = k rho c^2 S / (3V) sum_I u_I gamma_aI`` adds
   ``omega^2 <= 8 k c^2 S g / (3 V^2)`` with ``g`` the largest absolute row sum of the Gram
   matrix ``gamma_a . gamma_b`` (8 on a parallelepiped);
+* the assumed-strain element's hourglass stiffness (:mod:`pmpm.fem.assumed_strain`,
+  ``Q = K q`` with ``q_ai = gamma_a . u_i / 8``) adds ``omega^2 <= kappa g / (8 rho V)``,
+  kappa a bound of K's largest eigenvalue;
 * damping, the viscous forces of the half-step velocity (bulk viscosity
   ``q = rho L (C0 L |div| + C1 c) |div|`` and the viscous hourglass form
   ``Q_a = k rho c V^(2/3) / 4 q_a``), rate ``eta`` = largest eigenvalue of ``M^-1 C``:
@@ -33,10 +36,12 @@ from numba import njit
 
 from ..materials.layout import G, Q_LINEAR, Q_QUADRATIC
 from ..materials.tensors import fdiv
+from .assumed_strain import assumed_strain_omega2, element_frame, plate_moduli
 from .hexahedron import hourglass_shapes, largest_face_area, mean_gradient
 
-#: hourglass forms (as :mod:`pmpm.fem.elements`)
-VISCOUS, STIFFNESS = 0, 1
+#: hourglass forms (as :mod:`pmpm.fem.elements`); ASSUMED_STRAIN: the physical
+#: hourglass stiffness of the ``assumed_strain`` element (:mod:`pmpm.fem.assumed_strain`)
+VISCOUS, STIFFNESS, ASSUMED_STRAIN = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
@@ -72,7 +77,7 @@ def hourglass_gram_bound(gamma):
 
 
 @njit(cache=True, inline="always")
-def stable_rate(b, gamma, volume, length, rho, c, prm, hg_kind, hg_k, div):
+def stable_rate(b, gamma, volume, length, rho, c, prm, hg_kind, hg_k, div, half):
     """1 / (the element's stable step at cfl 1): see the module's docstring.
 
     b, gamma : the element's mean gradients (8, 3) and hourglass shapes (4, 8)
@@ -81,6 +86,8 @@ def stable_rate(b, gamma, volume, length, rho, c, prm, hg_kind, hg_k, div):
     prm : the body's packed material row (shear modulus, bulk viscosity coefficients)
     hg_kind, hg_k : hourglass form and coefficient
     div : the volumetric strain rate of the step
+    half : the half-lengths of pmpm.fem.assumed_strain.element_frame (read for
+        ASSUMED_STRAIN only)
     """
     s, beta = gradient_sums(b)
     g = hourglass_gram_bound(gamma)
@@ -92,6 +99,8 @@ def stable_rate(b, gamma, volume, length, rho, c, prm, hg_kind, hg_k, div):
         * s * inv_v2
     if hg_kind == STIFFNESS:
         omega2 += 8.0 * hg_k * c * c * s * g * inv_v2 / 3.0
+    elif hg_kind == ASSUMED_STRAIN:
+        omega2 += assumed_strain_omega2(half, volume, rho, plate_moduli(rho, c, shear, 1.0), g)
     else:
         eta += 2.0 * hg_k * c * g * fdiv(1.0, np.cbrt(volume))
     return 0.5 * (0.5 * eta + np.sqrt(omega2 + 0.25 * eta * eta))
@@ -104,6 +113,7 @@ def mesh_rate(x, hexes, body, rho, c, params, hg_kind, hg_k):
     forms (for the set-up's first step and the tests; the step's own rate comes from
     element_forces)."""
     xe, b, gamma = np.empty((8, 3)), np.empty((8, 3)), np.empty((4, 8))
+    frame, half = np.empty((3, 3)), np.ones(3)
     largest = 0.0
     for e in range(hexes.shape[0]):
         bb = body[e]
@@ -116,7 +126,10 @@ def mesh_rate(x, hexes, body, rho, c, params, hg_kind, hg_k):
         if not volume > 0.0:
             continue
         hourglass_shapes(xe, b, 1.0 / volume, gamma)
+        if hg_kind[bb] == ASSUMED_STRAIN:
+            element_frame(xe, frame, half)
         length = volume / largest_face_area(xe)
         largest = max(largest, stable_rate(b, gamma, volume, length, rho[bb], c[bb],
-                                           params[bb], hg_kind[bb], hg_k[bb], 0.0))
+                                           params[bb], hg_kind[bb], hg_k[bb], 0.0,
+                                           half))
     return largest

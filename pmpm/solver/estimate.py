@@ -82,15 +82,12 @@ def initial_speed(config, filled, meshes=None):
 def element_speed(config, table, b, mesh):
     """1 / the stable step at cfl 1 of the elements of FEM body ``b``'s ``mesh`` at the
     start (pmpm.fem.stability, hourglass included)."""
-    from ..fem.elements import HOURGLASS_KINDS
-    from .fem_bodies import start_rate
+    from .fem_bodies import hourglass_form, start_rate
     if len(mesh.hexes) == 0:
         return 0.0
     nb = len(config.bodies)
     kind, coefficient = np.zeros(nb, np.int64), np.zeros(nb)
-    fem = config.bodies[b].fem
-    kind[b] = HOURGLASS_KINDS[fem["hourglass"]]
-    coefficient[b] = fem["hourglass_coefficient"]
+    kind[b], coefficient[b] = hourglass_form(config.bodies[b].fem)
     body = np.full(len(mesh.hexes), b, np.int32)
     return start_rate(table, np.asarray(mesh.points, np.float64), mesh.hexes, body, kind,
                       coefficient)

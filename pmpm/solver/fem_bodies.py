@@ -32,9 +32,10 @@ from collections import namedtuple
 import numpy as np
 
 from ..comm.shared_nodes import exchange_objects, sum_shared_rows
-from ..fem.elements import (FAILED_UPDATE, HOURGLASS_KINDS, NON_POSITIVE_VOLUME,
-                            ElementMesh, Hourglass, advance_positions, advance_velocities,
-                            element_forces, external_forces, lumped_masses)
+from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
+                            NON_POSITIVE_VOLUME, ElementMesh, Hourglass, advance_positions,
+                            advance_velocities, element_forces, external_forces,
+                            lumped_masses)
 from ..fem.hexahedron import FACES, element_volumes
 from ..fem.stability import mesh_rate
 from ..kernels.records import BodyMaterials
@@ -129,9 +130,7 @@ class FemBodies:
         nb = len(self.names)
         kind, coefficient = np.zeros(nb, np.int64), np.zeros(nb)
         for b in self.body_indices:
-            fem = config.bodies[b].fem
-            kind[b] = HOURGLASS_KINDS[fem["hourglass"]]
-            coefficient[b] = fem["hourglass_coefficient"]
+            kind[b], coefficient[b] = hourglass_form(config.bodies[b].fem)
         return kind, coefficient
 
     # -- set-up -------------------------------------------------------------------------
@@ -578,6 +577,15 @@ def constrained(points, body, case_dir, key):
         for axis in item["fix"]:
             fixed[chosen, "xyz".index(axis)] = True
     return fixed
+
+
+def hourglass_form(fem):
+    """(kind, coefficient) of an FEM body's ``fem`` mapping: the reduced element's
+    hourglass form and coefficient, or ASSUMED_STRAIN (and 0: its stiffness comes from
+    the material) for ``element: assumed_strain``."""
+    if fem["element"] == "assumed_strain":
+        return ASSUMED_STRAIN, 0.0
+    return HOURGLASS_KINDS[fem["hourglass"]], fem["hourglass_coefficient"]
 
 
 def start_rate(table, x, hexes, body, hg_kind, hg_k):
