@@ -22,7 +22,73 @@ def parse_args(argv):
     parser.add_argument("--restart", action="store_true",
                         help="continue from the newest checkpoint in the output directory")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
-    return parser.parse_args(argv)
+    parser.add_argument("--check", action="store_true",
+                        help="validate the case and print its estimated particles, steps, "
+                             "output and memory, then stop (nothing compiled or written)")
+    parser.add_argument("--version", action="version", version=version_text())
+    args = parser.parse_args(argv)
+    if args.check and args.restart:
+        parser.error("--check validates a new run; it cannot be given with --restart")
+    return args
+
+
+def version_text():
+    """``pmpm 0.1.0 (git abc1234; numpy ..., numba ..., mpi4py ..., h5py ...)``: what
+    a bug report needs, read without importing the libraries."""
+    from importlib import metadata
+    from . import __version__
+    parts = []
+    commit = _git_commit()
+    if commit:
+        parts.append(f"git {commit}")
+    for name in ("numpy", "numba", "mpi4py", "h5py"):
+        try:
+            parts.append(f"{name} {metadata.version(name)}")
+        except metadata.PackageNotFoundError:
+            parts.append(f"{name} missing")
+    return f"pmpm {__version__} ({'; '.join(parts)})"
+
+
+def _git_commit():
+    """The short commit of the checkout pmpm runs from, or None (not a git checkout)."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    git = os.path.join(root, ".git")
+    try:
+        if os.path.isfile(git):             # a worktree: "gitdir: PATH"
+            with open(git, encoding="utf-8") as f:
+                git = f.read().split(":", 1)[1].strip()
+        with open(os.path.join(git, "HEAD"), encoding="utf-8") as f:
+            head = f.read().strip()
+        if head.startswith("ref: "):
+            ref = head[5:]
+            path = os.path.join(git, ref)
+            if not os.path.exists(path):
+                path = os.path.join(_common_dir(git), ref)
+            head = _read_ref(path, _common_dir(git), ref)
+        return head[:7] if head else None
+    except (OSError, IndexError):
+        return None
+
+
+def _common_dir(git):
+    """A worktree's shared git folder (its ``commondir``), or ``git`` itself."""
+    try:
+        with open(os.path.join(git, "commondir"), encoding="utf-8") as f:
+            return os.path.normpath(os.path.join(git, f.read().strip()))
+    except OSError:
+        return git
+
+
+def _read_ref(path, common, ref):
+    """A branch's commit from its loose file or from packed-refs."""
+    if os.path.exists(path):
+        with open(path, encoding="utf-8") as f:
+            return f.read().strip()
+    with open(os.path.join(common, "packed-refs"), encoding="utf-8") as f:
+        for line in f:
+            if line.rstrip().endswith(" " + ref):
+                return line.split()[0]
+    return None
 
 
 def parse_args_once(comm, argv):
@@ -41,7 +107,7 @@ def parse_args_once(comm, argv):
 
 def main(argv=None):
     from .comm import world
-    from .app import run_case, InputError
+    from .app import check_case, run_case, InputError
     from .solver.interrupt import INTERRUPTED, RunInterrupted, catch_signals
     catch_signals()
     comm = world()
@@ -49,6 +115,11 @@ def main(argv=None):
     if args is None:
         return status
     try:
+        if args.check:
+            lines = check_case(comm, args)
+            if comm.is_root:
+                print("\n".join(lines), flush=True)
+            return 0
         summary_path = run_case(comm, args)
     except InputError as err:
         if comm.is_root:

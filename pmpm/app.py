@@ -31,6 +31,68 @@ def run_case(world, args):
             release_lock(out)
 
 
+def check_case(world, args):
+    """``--check``: validate the case, lay its bodies out and decompose it as a run would,
+    and return the lines that say what the run would be (particles and elements, steps,
+    output, memory, the output directory), without compiling a kernel or touching the
+    output directory. Bad input raises InputError as a run would."""
+    from .case import fill_body
+    from .case.size import case_estimate, needed_bytes, _bytes
+    from .solver.estimate import check_size, initial_speed
+    from .solver.simulation import Simulation
+    config, _, case = load_checked_case(args.case, args.overrides)
+    if world.is_root:
+        warn_about_case(case, args.case)
+    case_dir = os.path.dirname(os.path.abspath(args.case))
+    out = args.out or os.path.join("results", _stem(args.case))
+    layout = _set_up(Simulation.lay_out, world, config, case_dir, fill_body)
+    filled, meshes = layout[1], layout[4]
+    size = _set_up(check_size, world, config, sum(len(v) for _, v in filled),
+                   lambda: initial_speed(config, filled, meshes), _existing_folder(out),
+                   0.0, True, mesh_counts(meshes))
+    particles, nodes = case_estimate(dict(enumerate(case["bodies"])), case["grid"], case_dir)
+    lines = [f"pmpm: check: {args.case} is valid"]
+    if size:
+        lines.append(size)
+    if meshes:
+        elements = mesh_counts(meshes)[0]
+        lines.append(f"pmpm: {elements:,} elements in {len(meshes)} FEM "
+                     f"bod{'y' if len(meshes) == 1 else 'ies'}")
+    memory = needed_bytes(float(sum(particles.values())), nodes, world.size)
+    lines.append(f"pmpm: memory about {_bytes(memory)} in all on {world.size} "
+                 f"rank{'s' if world.size > 1 else ''} (the estimate that "
+                 f"decomposition.memory_limit_gb is checked against)")
+    lines.append(f"pmpm: output to {out}" + _output_state(out))
+    return lines
+
+
+def mesh_counts(meshes):
+    """(elements, nodes) of the FEM bodies' meshes ({name: mesh})."""
+    return (sum(len(m.hexes) for m in meshes.values()),
+            sum(len(m.points) for m in meshes.values()))
+
+
+def group_counts(groups):
+    """(elements, nodes) of a checkpoint's FEM groups ({} without FEM bodies)."""
+    return tuple(len(next(iter(groups[name].values()), ())) if groups.get(name) else 0
+                 for name in ("elements", "nodes"))
+
+
+def _existing_folder(path):
+    """``path`` or its nearest existing parent (where the free space is measured)."""
+    path = os.path.abspath(path)
+    while not os.path.isdir(path) and os.path.dirname(path) != path:
+        path = os.path.dirname(path)
+    return path
+
+
+def _output_state(out):
+    """What a run would need to write into ``out``: a note when it holds results."""
+    if os.path.isdir(out) and [n for n in os.listdir(out) if n != LOCK_NAME]:
+        return " (not empty: the run needs --force to replace it or --restart to continue)"
+    return ""
+
+
 def run_locked(world, args, out, config, case_text, case):
     """The run proper, while rank 0 holds the lock on ``out``."""
     checkpoint = None
@@ -217,7 +279,8 @@ def begin_set_up(world, config, args, checkpoint, out):
             raise InputError([f"time.end: {end:g} is before the checkpoint's time "
                               f"{scalars['time']:g}; --set a later time.end to continue"])
         size = _set_up(check_size, world, config, world.sum(len(columns["x"])),
-                       lambda: scalars["fastest"], out, scalars["time"], False)
+                       lambda: scalars["fastest"], out, scalars["time"], False,
+                       group_counts(groups))
         return lambda: (_set_up(Simulation.from_checkpoint, world, config, scalars, columns,
                                 groups),
                         scalars, size)
@@ -225,7 +288,8 @@ def begin_set_up(world, config, args, checkpoint, out):
     layout = _set_up(Simulation.lay_out, world, config, case_dir, fill_body)
     filled = layout[1]
     size = _set_up(check_size, world, config, sum(len(v) for _, v in filled),
-                   lambda: initial_speed(config, filled, layout[4]), out, 0.0, True)
+                   lambda: initial_speed(config, filled, layout[4]), out, 0.0, True,
+                   mesh_counts(layout[4]))
     return lambda: (_set_up(Simulation.from_layout, world, config, layout), None, size)
 
 

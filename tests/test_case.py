@@ -247,6 +247,10 @@ def test_docs_example_loads(tmp_path):
     ({"materials__copper__eos__c0": None}, "materials.copper.eos.c0: missing (required)"),
     ({"materials__copper__T_melt": 200}, "materials.copper.T_melt: must be > T_room = 293"),
     ({"materials__copper__chi": 1.5}, "materials.copper.chi: must be <= 1, got 1.5"),
+    ({"bodies__0__method": "FEM"}, "bodies[0].method: unknown body method 'FEM'; known: fem, "
+                                   "particles (did you mean 'fem'?)"),
+    ({"bodies__0__fem": {"element_size": 1.0}}, "bodies[0].fem: a fem: block on a particle "
+                                                "body would be ignored"),
     ({"grid__cell": -1}, "grid.cell: must be > 0, got -1"),
     ({"grid__max": [7.6, -8, 27]},
      "grid: min must be < max in every direction (y: -7.6 >= -8)"),

@@ -206,3 +206,38 @@ def test_output_progress_false_silences_the_progress_lines(tmp_path):
                    "--set", "output.progress=false"])
     assert not re.findall(r"^step ", done.stdout, re.M)
     assert done.stdout.rstrip().endswith("results in " + str(tmp_path / "out"))
+
+
+@pytest.mark.parametrize("ranks", RANKS)
+def test_check_validates_and_estimates_without_writing_or_compiling(tmp_path, ranks):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text("{}\n")
+    done = pmpm([BAR, "--check", "--out", out], ranks)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == f"pmpm: check: {BAR} is valid"
+    assert re.match(r"pmpm: 624 particles; about \d+ steps", lines[1]), lines
+    assert re.match(r"pmpm: memory about [\d.]+ [kM]B in all on %d rank" % ranks, lines[2])
+    assert lines[3] == f"pmpm: output to {out} (not empty: the run needs --force to " \
+                       "replace it or --restart to continue)"
+    assert sorted(os.listdir(out)) == ["summary.json"]
+    assert (out / "summary.json").read_text() == "{}\n"
+    bad = pmpm([BAR, "--check", "--set", "time.cfl=2"], ranks)
+    assert bad.returncode == 2
+    assert pmpm_lines(bad.stderr) == ["pmpm: error: time.cfl: must be <= 1, got 2"]
+
+
+def test_check_counts_the_elements_and_their_output(tmp_path):
+    case = os.path.join(os.path.dirname(BAR), "block_on_fem_plate.yaml")
+    done = pmpm([case, "--check", "--out", tmp_path / "out"])
+    assert done.returncode == 0, done.stderr
+    assert "pmpm: 36 elements in 1 FEM body" in done.stdout.splitlines()
+    assert not (tmp_path / "out").exists()
+
+
+def test_version_names_pmpm_and_its_libraries():
+    done = pmpm(["--version"])
+    assert done.returncode == 0
+    assert re.match(r"pmpm \d+\.\d+\.\d+ \(.*numpy [\d.]+; numba [\d.]+; mpi4py [\d.]+; "
+                    r"h5py [\d.]+\)$", done.stdout.strip()), done.stdout

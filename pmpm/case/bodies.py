@@ -134,7 +134,7 @@ BODY = mapping({
                          "(default: the material's T_room, the Johnson-Cook reference)"),
     "method": Field(choice(METHODS, "body method"), "particles", doc=METHOD_DOC),
     "fem": Field(mapping(FEM), defaults_of(FEM),
-                 doc="the elements of a `method: fem` body (ignored for particles)"),
+                 doc="the elements of a `method: fem` body (refused on a particle body)"),
     "rigid": Field(mapping(RIGID), defaults_of(RIGID),
                    doc="the motion of a body of a `rigid` material (ignored for others; "
                        "a free axis of another body is refused)"),

@@ -45,8 +45,11 @@ def join(path, key):
 
 
 def did_you_mean(word, choices):
-    """`` (did you mean 'x'?)`` when a choice is close to ``word``, else ``""``."""
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    """`` (did you mean 'x'?)`` when a choice is close to ``word`` (or equal but for
+    case: ``FEM`` for ``fem``), else ``""``."""
+    names = [str(c) for c in choices]
+    close = [c for c in names if c.lower() == str(word).lower()]
+    close = close or difflib.get_close_matches(str(word), names, n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 

@@ -7,8 +7,8 @@ import os
 import numpy as np
 
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, greater, has_invalid,
-                     integer, list_of, mapping, number, text, valid, vector)
+from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, defaults_of, greater,
+                     has_invalid, integer, list_of, mapping, number, text, valid, vector)
 from .hexmesh import (InvertedElementError, MeshDefectError, MixedMeshError, box_counts,
                       hex_mesh, ogive_counts, prism_divisions, read_node_sets)
 from .mesh import MeshReadError
@@ -150,6 +150,25 @@ def check_element(fem, path, problems):
             problems.add(join(join(path, "fem"), key),
                          f"the assumed_strain element takes its hourglass stiffness from "
                          f"its material; {key} is for element 'reduced'")
+
+
+def check_fem_keys_on_particle_bodies(raw_bodies, bodies, problems):
+    """A ``fem:`` block on a body whose method is ``particles`` would be ignored (its
+    element size, its node-set clamps): refuse it, naming the key, rather than run the
+    body unclamped without a word. A block equal to the defaults (what validation fills
+    in, so a validated case validates again) is let through."""
+    if not isinstance(raw_bodies, list) or bodies is INVALID:
+        return
+    defaults = defaults_of(FEM)
+    for i, (raw, body) in enumerate(zip(raw_bodies, bodies)):
+        if not isinstance(raw, dict) or "fem" not in raw or body is INVALID:
+            continue
+        if valid(body, "method") and body["method"] == "particles" and \
+                body.get("fem") != defaults:
+            problems.add(join(join("bodies", i), "fem"),
+                         "a fem: block on a particle body would be ignored (its constraints "
+                         "too); set method: fem to mesh the body with elements, or remove "
+                         "the block (clamp particles with grid.boundary or a window)")
 
 
 def complete_fem(fem, grid):

@@ -10,7 +10,7 @@ from .contact import CONTACT, check_contact, check_gap_measure, resolve_contact_
 from .windows import WINDOW, check_window_bodies, check_windows
 from .bodies import BODY, check_bodies_in_grid, check_mesh_files, check_min_below_max
 from .errors import CaseError, Problems, join, unknown_name
-from .fem import check_fem_bodies
+from .fem import check_fem_bodies, check_fem_keys_on_particle_bodies
 from .rigid import check_free_rigid
 from .fields import (INVALID, Checked, Custom, Field, Marker, Tagged, at_least, at_most,
                      boolean, choice, defaults_of, greater, has_invalid, integer, list_of,
@@ -317,6 +317,7 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     else:
         check_mesh_files(bodies, case_dir, problems)
     check_fem_bodies(case, case_dir, check_geometry, problems)
+    check_fem_keys_on_particle_bodies(tree.get("bodies"), case["bodies"], problems)
     check_free_rigid(case, problems)
     problems.raise_if_any()
     resolve_contact_defaults(case)

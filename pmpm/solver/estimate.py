@@ -20,6 +20,11 @@ CHECKPOINTS_AT_ONCE = 3
 STEP_SLACK = 1e-9
 #: Bytes of one number in history.csv (a repr-formatted float and its comma).
 HISTORY_NUMBER_BYTES = 24
+#: Bytes of an element and of a node in a frame of elements.h5 (pmpm.io.elements_h5:
+#: id, stress, eps_p, density, e_int, centroid, hourglass energy; id, x, v) and in a
+#: checkpoint (the same with the connectivity, the reference positions and the state).
+ELEMENT_FRAME_BYTES, NODE_FRAME_BYTES = 112, 56
+ELEMENT_CHECKPOINT_BYTES, NODE_CHECKPOINT_BYTES = 200, 100
 
 
 def bytes_per_particle(names):
@@ -93,9 +98,10 @@ def element_speed(config, table, b, mesh):
                       coefficient)
 
 
-def estimate(config, n_particles, fastest, t0=0.0, first_frame=True):
-    """RunSize of the run of ``config`` from time ``t0`` with ``n_particles`` and the
-    coarse-grid equivalent wave plus particle speed ``fastest`` (as the run loop's)."""
+def estimate(config, n_particles, fastest, t0=0.0, first_frame=True, elements=(0, 0)):
+    """RunSize of the run of ``config`` from time ``t0`` with ``n_particles`` (and
+    ``elements``: the FEM bodies' element and node counts) and the coarse-grid
+    equivalent wave plus particle speed ``fastest`` (as the run loop's)."""
     from .run import Schedule
     time, output = config.time, config.output
     dt = time.cfl * config.grid.cell / fastest if fastest > 0 else math.inf
@@ -111,8 +117,12 @@ def estimate(config, n_particles, fastest, t0=0.0, first_frame=True):
     steps = math.ceil(steps) + len(frame_times) if steps < 1e15 else steps
     rows = steps / output.history_every + frames
     row_bytes = HISTORY_NUMBER_BYTES * (6 + 6 * len(config.bodies))
-    out = (frames * n_particles * bytes_per_particle(FRAME_COLUMNS)
-           + CHECKPOINTS_AT_ONCE * n_particles * bytes_per_particle(COLUMNS)
+    n_elements, n_nodes = elements
+    out = (frames * (n_particles * bytes_per_particle(FRAME_COLUMNS)
+                     + n_elements * ELEMENT_FRAME_BYTES + n_nodes * NODE_FRAME_BYTES)
+           + CHECKPOINTS_AT_ONCE * (n_particles * bytes_per_particle(COLUMNS)
+                                    + n_elements * ELEMENT_CHECKPOINT_BYTES
+                                    + n_nodes * NODE_CHECKPOINT_BYTES)
            + rows * row_bytes)
     return RunSize(int(n_particles), dt, float(steps), frames, float(out), stable)
 
@@ -156,7 +166,8 @@ def free_bytes(directory):
         return None
 
 
-def check_size(world, config, n_particles, fastest, out, t0=0.0, first_frame=True):
+def check_size(world, config, n_particles, fastest, out, t0=0.0, first_frame=True,
+               elements=(0, 0)):
     """Estimate the run and raise SetupError naming the keys of the limits it exceeds
     (collective: rank 0 decides; ``fastest`` is a function giving the coarse-grid speed,
     called on rank 0 only). Returns the line to print before the run (on rank 0; None
@@ -164,7 +175,7 @@ def check_size(world, config, n_particles, fastest, out, t0=0.0, first_frame=Tru
     result = None
     if world.is_root:
         try:
-            size = estimate(config, n_particles, fastest(), t0, first_frame)
+            size = estimate(config, n_particles, fastest(), t0, first_frame, elements)
         except SetupError as error:
             result = (error.problems, None)
         else:

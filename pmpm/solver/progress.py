@@ -1,4 +1,6 @@
-"""Progress lines on rank 0: on a terminal about once a second, otherwise every 5 %."""
+"""Progress lines on rank 0: on a terminal about once a second, otherwise every 5 %;
+rate and ETA over the last ``WINDOW_S`` seconds of wall time."""
+import collections
 import os
 import sys
 import time as clock
@@ -15,21 +17,58 @@ def on_terminal(stream):
     return stream.isatty() and not launched
 
 
+#: Wall seconds of the recent window that the rate and the ETA are measured over.
+WINDOW_S = 20.0
+
+
+class RecentRate:
+    """Simulated time and particle-steps per wall second over the last ``WINDOW_S``
+    seconds (or since the start, when shorter): a run whose steps slow down (contact
+    spreads, particles split, a window refines) shows the rate and the ETA it has now,
+    not its average since the start."""
+
+    def __init__(self, now, t, work):
+        self.samples = collections.deque([(now, t, work)])
+
+    def add(self, now, t, work):
+        if now - self.samples[-1][0] >= WINDOW_S / 40:
+            self.samples.append((now, t, work))
+        while len(self.samples) > 2 and now - self.samples[1][0] >= WINDOW_S:
+            self.samples.popleft()
+
+    def rates(self, now, t, work):
+        """(simulated time, particle-steps) per wall second over the window."""
+        then, t0, work0 = self.samples[0]
+        wall = now - then
+        if wall <= 0:
+            return 0.0, 0.0
+        return (t - t0) / wall, (work - work0) / wall
+
+
 class Progress:
     def __init__(self, end_time, enabled=True, stream=None):
         self.end = end_time
         self.stream = stream or sys.stdout
         self.enabled = enabled
         self.tty = on_terminal(self.stream)
-        self.started = clock.perf_counter()
+        self.start(0.0, 0)
         self.last_print = 0.0
         self.next_mark = 1  # next multiple of 5 % to report when not on a terminal
 
-    def update(self, step, t, dt, rate, energy_growth=0.0, lost=0):
+    def start(self, t, work):
+        """The step loop begins (at ``t``, after ``work`` particle-steps: a restart's)."""
+        self.started = clock.perf_counter()
+        self.recent = RecentRate(self.started, t, work)
+
+    def update(self, step, t, dt, work, energy_growth=0.0, lost=0):
+        """After a step: ``dt`` the step the run takes (not one shortened to land on a
+        frame), ``work`` the particle-steps done so far, ``energy_growth`` the current
+        energy balance (fraction)."""
         if not self.enabled:
             return
         fraction = t / self.end if self.end > 0 else 1.0
         now = clock.perf_counter()
+        self.recent.add(now, t, work)
         if self.tty and now - self.last_print < 1.0 and fraction < 1.0:
             return
         if not self.tty and fraction < self.next_mark / 20 - 1e-9:
@@ -37,8 +76,8 @@ class Progress:
         while self.next_mark / 20 - 1e-9 <= fraction:
             self.next_mark += 1
         self.last_print = now
-        elapsed = now - self.started
-        eta = elapsed * (1.0 - fraction) / fraction if fraction > 0 else float("nan")
+        speed, rate = self.recent.rates(now, t, work)
+        eta = (self.end - t) / speed if speed > 0 else float("nan")
         line = (f"step {step:7d}  t {t:.4e}  dt {dt:.3e}  {100 * fraction:5.1f}%  "
                 f"{rate / 1e6:6.2f} M particle-steps/s  energy {100 * energy_growth:+6.2f}%  "
                 f"ETA {eta:7.1f} s" + (f"  lost {lost}" if lost else ""))

@@ -52,6 +52,7 @@ class Runner:
         self.particle_steps = 0
         self.element_steps = 0
         self.step_wall = 0.0
+        self.step_dt = 0.0
         self.frame_index = 0
         self.n_initial = self.world.sum(sim.particles.n)
         self.allowance = float(self.config.grid.lost_mass_fraction)
@@ -96,6 +97,7 @@ class Runner:
             self.write_frame()
             self.write_history_row(0.0)
         self.started = clock.perf_counter()
+        self.progress.start(self.sim.time, self.particle_steps)
         dt = 0.0
         while self.sim.time < self.end * (1 - 1e-12):
             dt = self.next_dt()
@@ -130,6 +132,7 @@ class Runner:
                      self.dt_max)
         else:
             dt = self.fixed_step(fastest)
+        self.step_dt = dt       # the step the run takes, before landing on a frame
         target = self.schedule.next_after(sim.time, 1e-12 * self.end) or self.end
         return min(dt, target - sim.time)
 
@@ -178,7 +181,8 @@ class Runner:
             self.write_history_row(dt)
         if self.checkpoint_due(at_frame):
             self.save_checkpoint(dt)
-        self.progress.update(step, sim.time, dt, self.rate(), self.watch.growth, sim.lost)
+        self.progress.update(step, sim.time, self.step_dt, self.particle_steps,
+                             self.watch.growth, sim.lost)
 
     def check_lost(self, dt):
         """A fault when some body has lost more than grid.lost_mass_fraction of its

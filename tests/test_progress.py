@@ -1,0 +1,67 @@
+"""The progress line (pmpm.solver.progress): its rate and ETA follow the run's recent
+steps, not the average since the start, and it shows the step the run takes."""
+import io
+import re
+
+import pytest
+
+from pmpm.solver import progress as P
+
+
+class FakeClock:
+    def __init__(self):
+        self.now = 0.0
+
+    def perf_counter(self):
+        return self.now
+
+
+def lines_of(stream):
+    return [line for line in stream.getvalue().splitlines() if line.startswith("step")]
+
+
+def field(line, pattern):
+    return float(re.search(pattern, line).group(1))
+
+
+@pytest.fixture
+def clock(monkeypatch):
+    fake = FakeClock()
+    monkeypatch.setattr(P, "clock", fake)
+    monkeypatch.setattr(P, "on_terminal", lambda stream: False)
+    return fake
+
+
+def test_rate_and_eta_follow_a_run_that_slows_down(clock):
+    """100 s of wall at 1e6 particle-steps/s covering half the run, then ten times
+    slower: the line at 55 % shows the slow rate and the ETA the slow rate gives (the
+    average since the start would show 5.5e5 and about 82 s)."""
+    stream = io.StringIO()
+    progress = P.Progress(1.0, stream=stream)
+    t = work = step = 0
+    for _ in range(1000):                       # 0.1 s a step, 5e-4 of the run a step
+        clock.now += 0.1
+        t, work, step = t + 5e-4, work + 1e5, step + 1
+        progress.update(step, t, 5e-4, work)
+    for _ in range(1000):                       # ten times slower
+        clock.now += 0.1
+        t, work, step = t + 5e-5, work + 1e4, step + 1
+        progress.update(step, t, 5e-5, work)
+    line = lines_of(stream)[-1]
+    assert field(line, r"(\d+\.\d)%") == 55.0
+    assert field(line, r"([\d.]+) M particle-steps/s") == pytest.approx(0.10, abs=0.005)
+    assert field(line, r"ETA\s+([\d.]+) s") == pytest.approx(0.45 / 5e-4, rel=0.01)
+    assert field(line, r"dt ([\d.e+-]+)") == pytest.approx(5e-5)
+
+
+def test_a_restart_measures_from_where_it_continues(clock):
+    stream = io.StringIO()
+    progress = P.Progress(1.0, stream=stream)
+    clock.now = 50.0
+    progress.start(0.5, 7e7)                    # the checkpoint's time and work
+    for k in range(1, 101):
+        clock.now += 0.1
+        progress.update(k, 0.5 + k * 5e-4, 5e-4, 7e7 + k * 1e5)
+    line = lines_of(stream)[-1]
+    assert field(line, r"([\d.]+) M particle-steps/s") == pytest.approx(1.0, rel=1e-6)
+    assert field(line, r"ETA\s+([\d.]+) s") == pytest.approx(0.45 / 5e-3, rel=1e-6)
