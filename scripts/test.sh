@@ -20,7 +20,17 @@ run_share() {   # share i of $shares; a share that "$@" leaves empty (pytest's 5
     return "$rc"
 }
 echo "== serial tests ($shares shares of the test files side by side)"
-$PY -m pytest -q --collect-only "$@" tests > /dev/null || true
+# Compile (or load) the step kernels of every shape once, two sets side by side, before
+# the shares start: otherwise on a fresh clone each share compiles the ones it meets,
+# the same ones twice where both meet them. The stale-cache check runs once, first.
+warm() { NUMBA_NUM_THREADS=1 $PY -c "from pmpm.kernels.warmup import warm_up
+from pmpm.kernels.shape import SHAPE_CODES as S
+for name in '$1'.split(): warm_up(S[name.rstrip('+')], apic=name.endswith('+'))"; }
+$PY -c "from pmpm.kernels.cache import refresh_kernel_caches as r; r()"
+warm "linear bspline+" &
+compiling=$!
+warm "gimp+" || echo "pmpm: warm-up of the gimp kernels failed; the tests compile them"
+wait "$compiling" || echo "pmpm: warm-up of the linear and bspline kernels failed"
 logs=$(mktemp -d)
 pids=()
 for i in $(seq 2 "$shares"); do

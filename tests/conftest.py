@@ -23,7 +23,8 @@ FILE_SECONDS = {
     "test_fem_grid_coupling.py": 25, "test_water_column.py": 23, "test_conversion.py": 23,
     "test_contact.py": 22, "test_wave_bar.py": 16, "test_lost_particles.py": 16,
     "test_sphere_rolling_fem.py": 14, "test_ogive_plate_fem.py": 14,
-    "test_wall_friction.py": 12,
+    "test_wall_friction.py": 12, "test_fem_bending.py": 70,
+    "test_surface_contact_search.py": 10,
 }
 OTHER_FILE_SECONDS = 5
 
