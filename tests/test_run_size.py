@@ -70,7 +70,7 @@ def test_output_beyond_the_free_disk_space_is_refused():
     config, size = bar_size()
     problems = size_problems(config, size, free_bytes=100_000)
     assert len(problems) == 1 and problems[0].startswith(
-        "output.frames: the run would write about 8"), problems
+        "output.frames: the run would write about 9"), problems
     assert "but the output directory has 100 kB free" in problems[0]
 
 

@@ -122,7 +122,9 @@ class OutputConfig:
     frames: int
     history_every: int
     checkpoint_every: int
+    checkpoints: bool
     progress: bool
+    every: float
     times: tuple
     energy_warning: float
     energy_fault: float

@@ -90,7 +90,14 @@ OUTPUT = {
     "checkpoint_every": Field(integer(at_least(0)), 0, "steps",
                               "steps between checkpoints; 0: at every frame (every run "
                               "also ends with a checkpoint)"),
+    "checkpoints": Field(boolean(), True,
+                         doc="write checkpoints (false: none during the run or at its end, "
+                             "to save disk; a SIGTERM or SIGINT still writes one so that "
+                             "the run can be continued)"),
     "progress": Field(boolean(), True, doc="print progress lines (rank 0)"),
+    "every": Field(number(greater(0)), None, "ms",
+                   "a frame at every multiple of this time, besides `frames` (given "
+                   "without `frames`, only these and the final frame are written)"),
     "times": Field(number_list(0), [], "ms",
                    "extra frame times, each in (0, time.end], written besides the equally "
                    "spaced ones"),
@@ -318,10 +325,19 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
         check_mesh_files(bodies, case_dir, problems)
     check_fem_bodies(case, case_dir, check_geometry, problems)
     check_fem_keys_on_particle_bodies(tree.get("bodies"), case["bodies"], problems)
+    frames_from_every(tree.get("output"), case["output"])
     check_free_rigid(case, problems)
     problems.raise_if_any()
     resolve_contact_defaults(case)
     return case
+
+
+def frames_from_every(raw, output):
+    """``output.every`` given without ``output.frames``: the frames are the multiples of
+    ``every`` (and the final state), not those besides the default count of frames."""
+    if isinstance(raw, dict) and "every" in raw and "frames" not in raw and \
+            valid(output, "every") and output["every"] is not None:
+        output["frames"] = 1
 
 
 def _fits_in_memory(case, bodies, case_dir, problems):

@@ -37,6 +37,7 @@ import numpy as np
 
 from . import _by_id as B
 from . import _collective as C
+from .derived import with_stress_invariants
 from .elements_xdmf import write_elements_xdmf
 from .particles_h5 import STRESS_COMPONENTS
 
@@ -105,7 +106,8 @@ class ElementWriter:
 
     def write_mesh(self):
         """/mesh: the connectivity and bodies of the elements as they are now."""
-        nodes, elements = laid_out(self.comm, *self.elements.frame())
+        nodes, elements = self.elements.frame()
+        nodes, elements = laid_out(self.comm, nodes, with_stress_invariants(elements))
         mesh = self.file.create_group("mesh")
         self.n_elements = write_laid_out(
             mesh, self.comm, {"hexes": elements["hexes"], "body": elements["body"]})
@@ -133,7 +135,8 @@ class ElementWriter:
     def write_frame(self, time, step):
         """Write the elements and nodes of every rank as the next frame, then the XDMF
         (rank 0)."""
-        nodes, elements = laid_out(self.comm, *self.elements.frame())
+        nodes, elements = self.elements.frame()
+        nodes, elements = laid_out(self.comm, nodes, with_stress_invariants(elements))
         sizes = totals(self.comm, nodes, elements)
         if sizes == (self.n_nodes, self.n_elements):   # no element has become particles
             del elements["hexes"], elements["body"]

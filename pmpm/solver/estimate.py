@@ -14,6 +14,8 @@ from .errors import SetupError
 
 #: Columns of a particle frame (run.Runner.write_frame), as named in the store.
 FRAME_COLUMNS = ("x", "v", "stress", "eps_p", "rho", "mass", "body", "id", "temp", "e_int")
+#: Bytes of the derived columns of a particle or element frame (pressure, von Mises).
+DERIVED_BYTES = 16
 #: Checkpoints on disk at once: the two kept and the one being written.
 CHECKPOINTS_AT_ONCE = 3
 #: Relative round-off allowed between a fixed step and the stable step it may equal.
@@ -23,7 +25,7 @@ HISTORY_NUMBER_BYTES = 24
 #: Bytes of an element and of a node in a frame of elements.h5 (pmpm.io.elements_h5:
 #: id, stress, eps_p, density, e_int, centroid, hourglass energy; id, x, v) and in a
 #: checkpoint (the same with the connectivity, the reference positions and the state).
-ELEMENT_FRAME_BYTES, NODE_FRAME_BYTES = 112, 56
+ELEMENT_FRAME_BYTES, NODE_FRAME_BYTES = 112 + DERIVED_BYTES, 56
 ELEMENT_CHECKPOINT_BYTES, NODE_CHECKPOINT_BYTES = 200, 100
 
 
@@ -118,11 +120,11 @@ def estimate(config, n_particles, fastest, t0=0.0, first_frame=True, elements=(0
     rows = steps / output.history_every + frames
     row_bytes = HISTORY_NUMBER_BYTES * (6 + 6 * len(config.bodies))
     n_elements, n_nodes = elements
-    out = (frames * (n_particles * bytes_per_particle(FRAME_COLUMNS)
+    kept = CHECKPOINTS_AT_ONCE if output.checkpoints else 0
+    out = (frames * (n_particles * (bytes_per_particle(FRAME_COLUMNS) + DERIVED_BYTES)
                      + n_elements * ELEMENT_FRAME_BYTES + n_nodes * NODE_FRAME_BYTES)
-           + CHECKPOINTS_AT_ONCE * (n_particles * bytes_per_particle(COLUMNS)
-                                    + n_elements * ELEMENT_CHECKPOINT_BYTES
-                                    + n_nodes * NODE_CHECKPOINT_BYTES)
+           + kept * (n_particles * bytes_per_particle(COLUMNS)
+                     + n_elements * ELEMENT_CHECKPOINT_BYTES + n_nodes * NODE_CHECKPOINT_BYTES)
            + rows * row_bytes)
     return RunSize(int(n_particles), dt, float(steps), frames, float(out), stable)
 
@@ -141,7 +143,8 @@ def size_problems(config, size, free_bytes):
             f"output.frames: the run would write about {_size(size.output_bytes)} "
             f"({_frames(size.frames)} of {size.particles:,} particles, checkpoints, history) "
             f"but the output directory has {_size(free_bytes)} free; write fewer frames "
-            f"(output.frames, output.times) or choose another --out")
+            f"(output.frames, output.every, output.times), no checkpoints "
+            f"(output.checkpoints: false) or choose another --out")
     return problems
 
 

@@ -5,6 +5,7 @@ import time as clock
 import numpy as np
 
 from .. import io
+from ..io.derived import with_stress_invariants
 from ..io.elements_h5 import ElementWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
@@ -18,13 +19,22 @@ SORT_EVERY = 20
 
 
 class Schedule:
-    """Output times: ``frames`` equal intervals up to ``end`` plus any listed ``times``."""
+    """Output times: ``frames`` equal intervals up to ``end``, the multiples of ``every``
+    and any listed ``times``."""
 
     def __init__(self, output, end):
         n = max(output.frames, 1)
         times = set(np.linspace(0.0, end, n + 1)[1:].tolist())
+        if output.every:                # its multiples, the last one within round-off
+            count = int(np.floor(end / output.every * (1 + 1e-12)))
+            times.update(min(k * output.every, end) for k in range(1, count + 1))
         times.update(t for t in output.times if 0 < t <= end)
-        self.times = sorted(times)
+        self.times = []
+        for t in sorted(times):         # one frame for times equal within round-off
+            if not self.times or t - self.times[-1] > 1e-9 * end:
+                self.times.append(t)
+            elif t == end:
+                self.times[-1] = end
 
     def next_after(self, t, eps):
         return next((s for s in self.times if s > t + eps), None)
@@ -236,7 +246,8 @@ class Runner:
                    "temp": p.temp, "e_int": p.e_int}
         if self.sim.points.apic:
             columns["affine"] = p.affine
-        self.writer.write_frame(self.sim.time, self.sim.step_count, columns)
+        self.writer.write_frame(self.sim.time, self.sim.step_count,
+                                with_stress_invariants(columns))
         if self.element_writer:
             self.element_writer.write_frame(self.sim.time, self.sim.step_count)
         self.frame_index += 1
@@ -260,6 +271,8 @@ class Runner:
                              (e["kinetic"], e["internal"], e["total"]), rows)
 
     def checkpoint_due(self, at_frame):
+        if not self.output.checkpoints:
+            return False
         every = self.output.checkpoint_every
         return (self.sim.step_count % every == 0) if every > 0 else at_frame
 
@@ -285,7 +298,7 @@ class Runner:
                                             for t in self.schedule.times):
             self.write_frame()
         self.wall_s = self.wall()
-        if self.last_checkpoint != sim.step_count:
+        if self.output.checkpoints and self.last_checkpoint != sim.step_count:
             self.save_checkpoint(dt)
         summary = self.summary()
         self.close_outputs(summary)
