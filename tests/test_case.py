@@ -118,6 +118,14 @@ def test_params_errors_name_the_key(tmp_path):
 
 # --- overrides ---------------------------------------------------------------------
 
+def test_units_other_takes_any_consistent_system(tmp_path):
+    """A case in its own consistent system (here SI values for the copper) declares
+    ``units: other`` and is not range-checked."""
+    tree = edited(units="other", materials__copper__density=8930.0,
+                  materials__copper__E=1.17e11)
+    assert load(tmp_path, tree, check_geometry=False)["units"] == "other"
+
+
 def test_set_overrides_params_lists_and_new_keys(tmp_path):
     case = load(tmp_path, overrides=[
         "params.cell=0.38", "bodies.0.particles_per_cell=1", "bodies[0].velocity=[0, 0, -100]",
@@ -247,6 +255,14 @@ def test_docs_example_loads(tmp_path):
     ({"materials__copper__eos__c0": None}, "materials.copper.eos.c0: missing (required)"),
     ({"materials__copper__T_melt": 200}, "materials.copper.T_melt: must be > T_room = 293"),
     ({"materials__copper__chi": 1.5}, "materials.copper.chi: must be <= 1, got 1.5"),
+    ({"materials__copper__density": 8930}, "materials.copper.density: 8930 is not a density "
+                                           "in g/mm^3 (mm-ms-g"),
+    ({"materials__copper__E": 1.17e11}, "materials.copper.E: 1.17e+11 is not a modulus in MPa"),
+    ({"units": "m-s-kg"}, "materials.copper.density: 0.00893 is not a density in kg/m^3"),
+    ({"units": "cgs"}, "units: unknown unit system 'cgs'"),
+    ({"materials__copper__eos": {"type": "mie_gruneisen", "c0": 3.94, "s": 1.49,
+                                 "gamma0": 1.96}},
+     "materials.copper.eos.c0: 3.94 is far from the bulk sound speed"),
     ({"bodies__0__method": "FEM"}, "bodies[0].method: unknown body method 'FEM'; known: fem, "
                                    "particles (did you mean 'fem'?)"),
     ({"bodies__0__fem": {"element_size": 1.0}}, "bodies[0].fem: a fem: block on a particle "

@@ -162,7 +162,7 @@ def test_fifty_levels_still_load(tmp_path):
     with pytest.raises(CaseError) as err:
         load_case(path)
     assert err.value.problems == [
-        "junk: unknown key (allowed: title, params, grid, gravity, materials, bodies, loads, "
+        "junk: unknown key (allowed: title, params, grid, units, gravity, materials, bodies, loads, "
         "time, output, decomposition, contact)"]
 
 

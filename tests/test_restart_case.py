@@ -77,7 +77,7 @@ def test_a_changed_material_is_refused_and_the_case_text_kept(cut, tmp_path):
     assert pmpm_lines(done.stderr) == [
         "pmpm: error: materials.copper.density: changed since the checkpoint "
         "(0.00893 -> 0.009); --restart may change only time.end, time.max_steps, "
-        "grid.lost_mass_fraction, output.*, decomposition.*, title"]
+        "grid.lost_mass_fraction, output.*, decomposition.*, title, units"]
     assert "Traceback" not in done.stderr
     assert case_text(out) == before
     assert sorted(os.listdir(out)) == sorted(os.listdir(cut))

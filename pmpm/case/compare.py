@@ -12,7 +12,7 @@ MISSING = object()   # a key or list item on one side only
 
 #: Key paths (and the prefixes of whole sections, ending in ".") a restart may change.
 RESTART_MAY_CHANGE = ("time.end", "time.max_steps", "grid.lost_mass_fraction", "output.",
-                      "decomposition.", "title", "params.")
+                      "decomposition.", "title", "units", "params.")
 
 
 def may_change_text():

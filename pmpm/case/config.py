@@ -271,6 +271,7 @@ class CaseConfig:
     title: str
     params: ReadOnlyDict
     grid: GridConfig
+    units: str
     gravity: tuple
     materials: ReadOnlyDict
     bodies: tuple

@@ -19,6 +19,7 @@ from .materials import MATERIALS
 from .overrides import apply_overrides
 from .params import resolve_params, substitute
 from .size import check_memory
+from .units import SYSTEMS, check_units
 
 FACES = ("x-", "x+", "y-", "y+", "z-", "z+")
 BOUNDARY_CONDITIONS = ("fixed", "slip", "free", "symmetry")
@@ -279,6 +280,11 @@ TOP_LEVEL = {
     "params": Field(Custom(lambda value, path, problems: value, "mapping name: number"), {},
                     doc="parameters for ${...} expressions"),
     "grid": Field(read_grid, doc="the background grid"),
+    "units": Field(choice(SYSTEMS, "unit system"), "mm-ms-g",
+                   doc="the case's consistent unit system: mm-ms-g (stress MPa, velocity "
+                       "m/s, energy mJ), m-s-kg (SI), or other; densities, moduli and "
+                       "sound speeds outside the range real materials span in it are "
+                       "refused (pmpm.case.units; other: not checked)"),
     "gravity": Field(vector(), [0.0, 0.0, 0.0], "mm/ms^2",
                      "body acceleration (Earth: 9.81e-3 mm/ms^2)"),
     "materials": Field(MATERIALS, doc="the materials by name (at least one)"),
@@ -315,6 +321,7 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     case = read_mapping(tree, "", top_level_fields(default_title), problems)
     case["params"] = params
     check_references(case, problems)
+    check_units(case, problems)
     check_transfer(case, problems)
     check_fixed_step(case, problems)
     bodies = [] if case["bodies"] is INVALID else case["bodies"]
