@@ -65,3 +65,19 @@ def test_a_restart_measures_from_where_it_continues(clock):
     line = lines_of(stream)[-1]
     assert field(line, r"([\d.]+) M particle-steps/s") == pytest.approx(1.0, rel=1e-6)
     assert field(line, r"ETA\s+([\d.]+) s") == pytest.approx(0.45 / 5e-3, rel=1e-6)
+
+
+def test_a_slow_block_is_announced_and_a_quick_one_is_not():
+    import time
+    stream = io.StringIO()
+    with P.SlowNotice("compiling the kernels", after=0.05, stream=stream):
+        time.sleep(0.3)
+    lines = stream.getvalue().splitlines()
+    assert lines[0] == "pmpm: compiling the kernels ..."
+    assert re.fullmatch(r"pmpm: done in \d+ s", lines[1])
+    quick = io.StringIO()
+    with P.SlowNotice("compiling the kernels", after=5.0, stream=quick):
+        pass
+    with P.SlowNotice("compiling the kernels", enabled=False, after=0.0, stream=quick):
+        time.sleep(0.1)
+    assert quick.getvalue() == ""

@@ -3,6 +3,7 @@ rate and ETA over the last ``WINDOW_S`` seconds of wall time."""
 import collections
 import os
 import sys
+import threading
 import time as clock
 
 #: Set by MPI launchers (Open MPI, MPICH/Hydra, PMIx) in the ranks they start.
@@ -84,3 +85,38 @@ class Progress:
         end = "\r" if self.tty and fraction < 1.0 else "\n"
         self.stream.write(line + end)
         self.stream.flush()
+
+
+class SlowNotice:
+    """Context manager: when the block is still running ``after`` seconds in, print
+    ``message`` (once, from a timer thread), and when it ends the seconds it took, so
+    that a first run's kernel compile (minutes after an install or an edit; a second
+    later) is announced instead of a silent wait. Prints nothing when not ``enabled``
+    or when the block is quick."""
+
+    def __init__(self, message, enabled=True, after=2.0, stream=None):
+        self.message, self.enabled, self.after = message, enabled, after
+        self.stream = stream or sys.stdout
+        self.said = False
+
+    def __enter__(self):
+        self.started = clock.perf_counter()
+        if self.enabled:
+            self.timer = threading.Timer(self.after, self._say)
+            self.timer.daemon = True
+            self.timer.start()
+        return self
+
+    def _say(self):
+        self.said = True
+        self.stream.write(f"pmpm: {self.message} ...\n")
+        self.stream.flush()
+
+    def __exit__(self, *exc):
+        if self.enabled:
+            self.timer.cancel()
+            if self.said:
+                took = clock.perf_counter() - self.started
+                self.stream.write(f"pmpm: done in {took:.0f} s\n")
+                self.stream.flush()
+        return False

@@ -13,7 +13,7 @@ from .estimate import STEP_SLACK
 from .energy import EnergyWatch
 from .interrupt import RunInterrupted, received, signal_name
 from .memory import memory_summary
-from .progress import Progress
+from .progress import Progress, SlowNotice
 
 SORT_EVERY = 20
 
@@ -63,6 +63,10 @@ class Runner:
         self.element_steps = 0
         self.step_wall = 0.0
         self.step_dt = 0.0
+        self.first_step_s = None    # this process's first step: it compiles the kernels
+        self.timed = [0.0, 0, 0]    # the warm-up leaves (FEM, surface contact); the rates
+        #                             are measured over the steps after it: wall, particle-
+        #                             and element-steps
         self.frame_index = 0
         self.n_initial = self.world.sum(sim.particles.n)
         self.allowance = float(self.config.grid.lost_mass_fraction)
@@ -111,7 +115,13 @@ class Runner:
         dt = 0.0
         while self.sim.time < self.end * (1 - 1e-12):
             dt = self.next_dt()
-            self.advance(dt)
+            if self.first_step_s is None:
+                with SlowNotice("the first step is compiling the kernels of its FEM bodies "
+                                "and couplings (first run only)",
+                                self.progress.enabled and bool(self.sim.elements)):
+                    self.advance(dt)
+            else:
+                self.advance(dt)
             self.after_step(dt)
             self.stop_if_signalled(dt)
         self.finish(dt)
@@ -171,9 +181,15 @@ class Runner:
         if sim.lost != self.lost_seen:
             self.lost_seen = sim.lost
             self.check_lost(dt)
-        self.step_wall += clock.perf_counter() - tick
+        took = clock.perf_counter() - tick
+        self.step_wall += took
         self.particle_steps += n
         self.element_steps += self.n_elements
+        if self.first_step_s is None:
+            self.first_step_s = took
+        else:
+            self.timed = [self.timed[0] + took, self.timed[1] + n,
+                          self.timed[2] + self.n_elements]
         if self.config.loads:          # the loads' work over the step (trapezoidal)
             self.local_load_work += 0.5 * dt * (power + sim.load_power(vectors))
 
@@ -220,8 +236,14 @@ class Runner:
         last = checkpoint_path(self.out, self.last_checkpoint)
         return f"{where}: {err}; last checkpoint: {last} (step {self.last_checkpoint})"
 
-    def rate(self):
-        return self.particle_steps / self.step_wall if self.step_wall > 0 else 0.0
+    def rate(self, column=1):
+        """Particle-steps (``column`` 2: element-steps) per second of stepping, over this
+        process's steps after its first (which compiles the kernels the warm-up does
+        not), or over every step when it took only one."""
+        wall, count = self.timed[0], self.timed[column]
+        if wall <= 0:
+            wall, count = self.step_wall, (self.particle_steps, self.element_steps)[column - 1]
+        return count / wall if wall > 0 else 0.0
 
     # -- outputs -----------------------------------------------------------------
     def open_outputs(self):
@@ -321,7 +343,7 @@ class Runner:
                             "final": self.world.sum(sim.particles.n)},
             "n_steps": sim.step_count, "t_end": sim.time,
             "wall_s": self.wall_s, "step_wall_s": self.step_wall,
-            "compile_s": self.compile_s,
+            "compile_s": self.compile_s, "first_step_s": self.first_step_s or 0.0,
             "particle_steps_per_s": self.rate(),
             "particle_steps_per_s_per_rank": self.rate() / self.world.size,
             "particles_lost": int(sim.lost),
@@ -337,11 +359,11 @@ class Runner:
 
     def element_summary(self):
         """With FEM bodies: their element count, element-steps per second of stepping
-        (the whole step's wall time, particles included) and each rank's elements at the
-        end."""
+        (the whole step's wall time, particles included, after the first step) and each
+        rank's elements at the end."""
         if not self.sim.elements:
             return {}
-        rate = self.element_steps / self.step_wall if self.step_wall > 0 else 0.0
+        rate = self.rate(column=2)
         per_rank = self.world.allgather(self.sim.elements.n_elements)
         return {"n_elements": self.n_elements, "element_steps_per_s": rate,
                 "elements_per_rank": [int(n) for n in per_rank]}
