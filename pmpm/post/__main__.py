@@ -1,0 +1,50 @@
+"""``python -m pmpm.post RESULTS_DIR [--frame N] [--field NAME] [--normal y] [--out DIR]``:
+quick-look PNGs of a run without ParaView (pmpm.post.plots): energies.png, bodies.png
+and frame_NNNNNN_FIELD.png. Exit 2 with one line when RESULTS_DIR holds no run."""
+import argparse
+import os
+import sys
+
+
+def parse_args(argv):
+    parser = argparse.ArgumentParser(
+        prog="python -m pmpm.post", description="Quick-look plots of a pmpm run (PNG).")
+    parser.add_argument("results", help="a run's output directory")
+    parser.add_argument("--frame", type=int, default=-1,
+                        help="frame index for the frame picture (default: the last)")
+    parser.add_argument("--field", default=None,
+                        help="frame field to colour by (default: von_mises, else eps_p)")
+    parser.add_argument("--normal", choices=("x", "y", "z"), default="y",
+                        help="the axis the frame is seen along (default y)")
+    parser.add_argument("--out", default=None,
+                        help="folder for the PNGs (default: RESULTS/plots)")
+    return parser.parse_args(argv)
+
+
+def main(argv=None):
+    args = parse_args(sys.argv[1:] if argv is None else argv)
+    history = os.path.join(args.results, "history.csv")
+    if not os.path.exists(history):
+        sys.stderr.write(f"pmpm.post: error: {args.results}: no history.csv (not a pmpm "
+                         f"run's output directory)\n")
+        return 2
+    from . import plots
+    out = args.out or os.path.join(args.results, "plots")
+    os.makedirs(out, exist_ok=True)
+    written = [plots.plot_energies(args.results, os.path.join(out, "energies.png")),
+               plots.plot_bodies(args.results, os.path.join(out, "bodies.png"))]
+    if os.path.exists(os.path.join(args.results, "particles.h5")):
+        try:
+            name = f"frame_{args.frame if args.frame >= 0 else 'last'}_{args.field or 'auto'}.png"
+            written.append(plots.plot_frame(args.results, os.path.join(out, name),
+                                            args.frame, args.field, args.normal))
+        except (KeyError, IndexError) as err:
+            sys.stderr.write(f"pmpm.post: error: --frame/--field: {err}\n")
+            return 2
+    for path in written:
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
