@@ -6,6 +6,7 @@ import os
 import re
 
 import h5py
+import numpy as np
 import pytest
 
 from clihelp import BAR, pmpm, pmpm_lines, read_history, run_ok, frame_list
@@ -150,7 +151,10 @@ def check_summary(summary, ranks):
 def check_history(out):
     header, rows = read_history(out)
     assert header == ["step", "time", "dt", "kinetic", "internal", "total",
-                      "bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz"]
+                      "bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz",
+                      "bar.kinetic", "bar.internal"]
+    # one body: its energies are the totals
+    assert np.allclose(rows[:, 12:14], rows[:, 3:5], rtol=1e-12, atol=0)
     steps = rows[:, 0]
     assert steps[0] == 0 and steps[-1] == 48
     assert (steps[1:] > steps[:-1]).all() and (rows[1:, 1] > rows[:-1, 1]).all()

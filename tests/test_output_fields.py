@@ -10,7 +10,7 @@ import pytest
 
 from clihelp import BAR, CASES, run_ok
 from pmpm.io.derived import stress_invariants
-from pmpm.post import read_frame
+from pmpm.post import read_frame, read_history
 
 
 def test_invariants_of_textbook_stresses():
@@ -47,6 +47,13 @@ def test_element_frames_carry_the_pressure_and_von_mises_stress(tmp_path):
         assert np.abs(pressure).max() > 0.0             # the block has hit the plate
     xdmf = (out / "elements.xdmf").read_text()
     assert 'Name="pressure"' in xdmf and 'Name="von_mises"' in xdmf
+    # the bodies' energies in history.csv add up to the totals (the plate's internal
+    # energy holds its hourglass energy)
+    hist = read_history(out)
+    for kind in ("kinetic", "internal"):
+        assert hist[f"block.{kind}"] + hist[f"plate.{kind}"] == pytest.approx(
+            hist[kind], rel=1e-10, abs=1e-14)
+    assert hist["plate.internal"][-1] > 0 and hist["block.internal"][-1] > 0
 
 
 def frame_times(out):

@@ -1,8 +1,13 @@
-"""History CSV (``DIR/history.csv``): energies and per-body centroid and velocity over time.
+"""History CSV (``DIR/history.csv``): energies and per-body centroid, velocity and
+energies over time.
 
 Written by rank 0 only. Header::
 
-    step,time,dt,kinetic,internal,total,NAME.x,NAME.y,NAME.z,NAME.vx,NAME.vy,NAME.vz,...
+    step,time,dt,kinetic,internal,total,NAME.x,NAME.y,NAME.z,NAME.vx,NAME.vy,NAME.vz,
+    NAME.kinetic,NAME.internal,...
+
+A body's internal energy includes its elements' hourglass energy, so that the bodies'
+energies add up to the totals.
 
 Each row is flushed as it is written, so ``tail -f history.csv`` follows a running case.
 Floats are written with ``repr`` (shortest exact round trip).
@@ -13,7 +18,7 @@ import numpy as np
 
 from ._files import atomic_write_text, resolve
 
-BODY_FIELDS = ("x", "y", "z", "vx", "vy", "vz")
+BODY_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "kinetic", "internal")
 ENERGY_FIELDS = ("kinetic", "internal", "total")
 
 
@@ -63,7 +68,7 @@ class HistoryWriter:
         if isinstance(body_rows, dict):
             body_rows = [body_rows[name] for name in self.body_names]
         values = np.asarray(body_rows, dtype=float).reshape(-1)
-        if values.size != 6 * len(self.body_names):
+        if values.size != len(BODY_FIELDS) * len(self.body_names):
             raise ValueError(f"body_rows: expected {len(self.body_names)} rows of "
                              f"{len(BODY_FIELDS)} values, got {values.size} values")
         return values
@@ -78,8 +83,8 @@ class HistoryWriter:
         energies : sequence of 3 float, or dict
             Kinetic, internal and total energy (or a dict with those keys).
         body_rows : sequence or dict
-            Per body (in ``body_names`` order, or a dict keyed by name) the six values
-            x, y, z, vx, vy, vz (mass-weighted centroid and velocity).
+            Per body (in ``body_names`` order, or a dict keyed by name) the values
+            x, y, z, vx, vy, vz (mass-weighted centroid and velocity), kinetic, internal.
         """
         if isinstance(energies, dict):
             energies = [energies[key] for key in ENERGY_FIELDS]

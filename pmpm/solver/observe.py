@@ -11,16 +11,19 @@ def energies(world, particles):
 
 
 def body_stats(world, particles, names):
-    """Per body: mass, n_particles, centroid, velocity (mass-weighted), bbox_min/max."""
+    """Per body: mass, n_particles, centroid, velocity (mass-weighted), bbox_min/max and
+    energy (kinetic, internal)."""
     p, nb = particles, len(names)
-    sums = np.zeros((nb, 8))
+    sums = np.zeros((nb, 10))
     box = np.full((nb, 6), -np.inf)
     for b in range(nb):
         mine = p.body == b
         if not mine.any():
             continue
         m = p.mass[mine]
-        sums[b] = [m.sum(), mine.sum(), *(m @ p.x[mine]), *(m @ p.v[mine])]
+        v = p.v[mine]
+        sums[b] = [m.sum(), mine.sum(), *(m @ p.x[mine]), *(m @ v),
+                   0.5 * m @ np.einsum("ij,ij->i", v, v), m @ p.e_int[mine]]
         box[b, :3], box[b, 3:] = -p.x[mine].min(axis=0), p.x[mine].max(axis=0)
     sums, box = world.sum(sums), world.max(box)
     stats = {}
@@ -30,5 +33,7 @@ def body_stats(world, particles, names):
         stats[name] = {"mass": mass, "n_particles": int(sums[b, 1]),
                        "centroid": (sums[b, 2:5] / safe).tolist(),
                        "velocity": (sums[b, 5:8] / safe).tolist(),
-                       "bbox_min": (-box[b, :3]).tolist(), "bbox_max": box[b, 3:].tolist()}
+                       "bbox_min": (-box[b, :3]).tolist(), "bbox_max": box[b, 3:].tolist(),
+                       "energy": {"kinetic": float(sums[b, 8]),
+                                  "internal": float(sums[b, 9])}}
     return stats

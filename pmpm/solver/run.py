@@ -40,6 +40,12 @@ class Schedule:
         return next((s for s in self.times if s > t + eps), None)
 
 
+def body_energies(stats):
+    """[kinetic, internal] of one body's stats, its hourglass energy in the internal."""
+    e = stats["energy"]
+    return [e["kinetic"], e["internal"] + e.get("hourglass", 0.0)]
+
+
 class Runner:
     """Drives a :class:`Simulation` to ``time.end`` and writes the run contract's files."""
 
@@ -288,7 +294,8 @@ class Runner:
             raise SolverError(self.fault_message(fault, dt, taken=True))
         stats = self.sim.body_stats()
         if self.history is not None:
-            rows = {name: s["centroid"] + s["velocity"] for name, s in stats.items()}
+            rows = {name: s["centroid"] + s["velocity"] + body_energies(s)
+                    for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
                              (e["kinetic"], e["internal"], e["total"]), rows)
 

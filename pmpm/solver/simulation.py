@@ -363,4 +363,6 @@ def merged_stats(elements, particles):
                   centroid=mean("centroid"), velocity=mean("velocity"))
     merged["bbox_min"] = np.minimum(elements["bbox_min"], particles["bbox_min"]).tolist()
     merged["bbox_max"] = np.maximum(elements["bbox_max"], particles["bbox_max"]).tolist()
+    merged["energy"] = {key: value + particles["energy"].get(key, 0.0)
+                        for key, value in elements["energy"].items()}
     return merged
