@@ -1,7 +1,8 @@
 """What ``--force`` may replace in an output directory: only the files a pmpm run writes.
 
-A run writes ``particles.h5``, ``particles.xdmf``, ``history.csv``, ``summary.json`` and
-``checkpoint_NNNNNN.h5``; one stopped half-way may also leave their temporary files
+A run writes ``particles.h5``, ``particles.xdmf``, ``history.csv``, ``summary.json``,
+``checkpoint_NNNNNN.h5`` and ``probe_NAME.csv`` (``output.probes``), and ``python -m
+pmpm.post`` adds ``plot_*.png``; one stopped half-way may also leave their temporary files
 (``NAME.tmp.PID`` from an atomic write, ``checkpoint_NNNNNN.h5.tmp``). Anything else in
 the directory (another file, any subdirectory, the case file itself) makes ``--force``
 refuse, so that it never deletes what pmpm did not write.
@@ -12,6 +13,7 @@ import re
 OUTPUT_FILES = ("particles.h5", "particles.xdmf", "history.csv", "summary.json",
                 "elements.h5", "elements.xdmf")
 _CHECKPOINT = re.compile(r"^checkpoint_\d+\.h5(\.tmp)?$")
+_DERIVED = re.compile(r"^(probe_[A-Za-z0-9_-]+\.csv(\.tmp\.\d+)?|plot_[A-Za-z0-9_.-]+\.png)$")
 _TEMPORARY = re.compile(
     r"^(" + "|".join(re.escape(name) for name in OUTPUT_FILES) + r")\.tmp\.\d+$")
 _NAMED = 3  # foreign entries named in the error line
@@ -19,7 +21,8 @@ _NAMED = 3  # foreign entries named in the error line
 
 def is_run_file(directory, name):
     """Whether ``directory/name`` is a file a pmpm run writes (not a directory)."""
-    if not (name in OUTPUT_FILES or _CHECKPOINT.match(name) or _TEMPORARY.match(name)):
+    if not (name in OUTPUT_FILES or _CHECKPOINT.match(name) or _TEMPORARY.match(name)
+            or _DERIVED.match(name)):
         return False
     path = os.path.join(directory, name)
     return os.path.islink(path) or not os.path.isdir(path)
@@ -49,8 +52,9 @@ def force_problem(out, case_path, names):
              for name in foreign[:_NAMED]]
     more = f" and {len(foreign) - _NAMED} more" if len(foreign) > _NAMED else ""
     return (f"--out: '{out}' holds files that are not a pmpm run's output "
-            f"({', '.join(shown)}{more}); --force replaces only {', '.join(OUTPUT_FILES)} "
-            f"and checkpoint_*.h5, so choose another --out or move them")
+            f"({', '.join(shown)}{more}); --force replaces only {', '.join(OUTPUT_FILES)}, "
+            f"checkpoint_*.h5, probe_*.csv and plot_*.png, so choose another --out or move "
+            f"them")
 
 
 def replace_run_files(out, names):

@@ -1,6 +1,7 @@
 """``python -m pmpm.post RESULTS_DIR [--frame N] [--field NAME] [--normal y] [--out DIR]``:
-quick-look PNGs of a run without ParaView (pmpm.post.plots): energies.png, bodies.png
-and frame_NNNNNN_FIELD.png. Exit 2 with one line when RESULTS_DIR holds no run."""
+quick-look PNGs of a run without ParaView (pmpm.post.plots): plot_energies.png,
+plot_bodies.png and plot_frame_N_FIELD.png, beside the run's files (``--force`` replaces
+them with the run's). Exit 2 with one line when RESULTS_DIR holds no run."""
 import argparse
 import os
 import sys
@@ -17,7 +18,7 @@ def parse_args(argv):
     parser.add_argument("--normal", choices=("x", "y", "z"), default="y",
                         help="the axis the frame is seen along (default y)")
     parser.add_argument("--out", default=None,
-                        help="folder for the PNGs (default: RESULTS/plots)")
+                        help="folder for the PNGs (default: RESULTS itself)")
     return parser.parse_args(argv)
 
 
@@ -29,13 +30,14 @@ def main(argv=None):
                          f"run's output directory)\n")
         return 2
     from . import plots
-    out = args.out or os.path.join(args.results, "plots")
+    out = args.out or args.results
     os.makedirs(out, exist_ok=True)
-    written = [plots.plot_energies(args.results, os.path.join(out, "energies.png")),
-               plots.plot_bodies(args.results, os.path.join(out, "bodies.png"))]
+    written = [plots.plot_energies(args.results, os.path.join(out, "plot_energies.png")),
+               plots.plot_bodies(args.results, os.path.join(out, "plot_bodies.png"))]
     if os.path.exists(os.path.join(args.results, "particles.h5")):
         try:
-            name = f"frame_{args.frame if args.frame >= 0 else 'last'}_{args.field or 'auto'}.png"
+            name = f"plot_frame_{args.frame if args.frame >= 0 else 'last'}_" \
+                   f"{args.field or 'auto'}.png"
             written.append(plots.plot_frame(args.results, os.path.join(out, name),
                                             args.frame, args.field, args.normal))
         except (KeyError, IndexError) as err:
