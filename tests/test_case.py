@@ -163,7 +163,7 @@ def test_defaults_filled(tmp_path):
                             "transfer": "flip", "scheme": "usf", "max_steps": 1e8}
     assert case["output"] == {"frames": 10, "history_every": 10, "checkpoint_every": 0,
                               "checkpoints": True, "progress": True, "every": None,
-                              "times": [], "energy_warning": 0.05, "energy_fault": 10.0}
+                              "probes": [], "times": [], "energy_warning": 0.05, "energy_fault": 10.0}
     assert case["decomposition"] == {"axis": "auto", "rebalance_threshold": 0.2,
                                      "check_every": 50, "memory_limit_gb": None}
     assert case["loads"] == []
@@ -263,6 +263,11 @@ def test_docs_example_loads(tmp_path):
     ({"materials__copper__eos": {"type": "mie_gruneisen", "c0": 3.94, "s": 1.49,
                                  "gamma0": 1.96}},
      "materials.copper.eos.c0: 3.94 is far from the bulk sound speed"),
+    ({"output__probes": [{"name": "p", "body": "rod", "point": [0, 0, 1]}]},
+     "output.probes[0].body: unknown body 'rod'"),
+    ({"output__probes": [{"name": "p", "body": "bar", "point": [0, 0, 1]},
+                         {"name": "p", "body": "bar", "point": [0, 0, 2]}]},
+     "output.probes[1].name: duplicate name 'p' (also output.probes[0])"),
     ({"bodies__0__method": "FEM"}, "bodies[0].method: unknown body method 'FEM'; known: fem, "
                                    "particles (did you mean 'fem'?)"),
     ({"bodies__0__fem": {"element_size": 1.0}}, "bodies[0].fem: a fem: block on a particle "

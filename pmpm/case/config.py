@@ -125,6 +125,7 @@ class OutputConfig:
     checkpoints: bool
     progress: bool
     every: float
+    probes: tuple
     times: tuple
     energy_warning: float
     energy_fault: float

@@ -8,7 +8,7 @@ import math
 
 from .contact import CONTACT, check_contact, check_gap_measure, resolve_contact_defaults
 from .windows import WINDOW, check_window_bodies, check_windows
-from .bodies import BODY, check_bodies_in_grid, check_mesh_files, check_min_below_max
+from .bodies import BODY, _body_name, check_bodies_in_grid, check_mesh_files, check_min_below_max
 from .errors import CaseError, Problems, join, unknown_name
 from .fem import check_fem_bodies, check_fem_keys_on_particle_bodies
 from .rigid import check_free_rigid
@@ -82,6 +82,14 @@ TIME = {
                        "so that a wrong speed or end time does not start a run that cannot "
                        "finish; raise it for a run meant to be that long"),
 }
+PROBE = {
+    "name": Field(Custom(_body_name, "string of letters, digits, _, -"),
+                  doc="the probe's name: its history goes to probe_NAME.csv"),
+    "body": Field(text(), doc="the (particle) body it follows"),
+    "point": Field(vector(), unit="mm",
+                   doc="the body's particle nearest this point at the start is followed "
+                       "(ties: the lower id); the same on any number of ranks"),
+}
 OUTPUT = {
     "frames": Field(integer(at_least(1)), 10,
                     doc="particle frames written after the initial one, equally spaced in "
@@ -99,6 +107,10 @@ OUTPUT = {
     "every": Field(number(greater(0)), None, "ms",
                    "a frame at every multiple of this time, besides `frames` (given "
                    "without `frames`, only these and the final frame are written)"),
+    "probes": Field(list_of(mapping(PROBE), 0, "probe"), [],
+                    doc="particles followed through the run: at every history row "
+                        "probe_NAME.csv gets its position, velocity, stress, eps_p, "
+                        "pressure and von Mises stress"),
     "times": Field(number_list(0), [], "ms",
                    "extra frame times, each in (0, time.end], written besides the equally "
                    "spaced ones"),
@@ -372,6 +384,7 @@ def check_references(case, problems):
             problems.add(join(join("bodies", i), "material"),
                          unknown_name("material", body["material"], materials))
     _check_output_times(case, problems)
+    _check_probes(case, body_names, problems)
     if all(valid(body, "name") for body in bodies):
         check_contact(case["contact"], body_names, problems)
         check_gap_measure(case["contact"], case["grid"], problems)
@@ -428,6 +441,26 @@ def _check_output_times(case, problems):
     for i, t in enumerate(case["output"]["times"]):
         if not 0 < t <= end:
             problems.add(f"output.times[{i}]", f"must be in (0, time.end = {end:g}], got {t:g}")
+
+
+def _check_probes(case, body_names, problems):
+    """Probe names unique; each follows a particle body that exists."""
+    if not valid(case["output"], "probes"):
+        return
+    probes = case["output"]["probes"]
+    _unique_names(probes, "output.probes", problems)
+    bodies = {b["name"]: b for b in case["bodies"] if valid(b, "name")} \
+        if case["bodies"] is not INVALID else {}
+    for i, probe in enumerate(probes):
+        if not valid(probe, "body"):
+            continue
+        path = join(join("output.probes", i), "body")
+        body = bodies.get(probe["body"])
+        if body is None:
+            problems.add(path, unknown_name("body", probe["body"], body_names))
+        elif valid(body, "method") and body["method"] == "fem":
+            problems.add(path, f"body {probe['body']!r} is an FEM body; probes follow "
+                         f"particles (its elements are in elements.h5)")
 
 
 def _unique_names(items, section, problems):

@@ -7,12 +7,14 @@ import numpy as np
 from .. import io
 from ..io.derived import with_stress_invariants
 from ..io.elements_h5 import ElementWriter
+from ..io.probes import ProbeWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
 from .estimate import STEP_SLACK
 from .energy import EnergyWatch
 from .interrupt import RunInterrupted, received, signal_name
 from .memory import memory_summary
+from .probes import COLUMNS as PROBE_COLUMNS, Probes
 from .progress import Progress, SlowNotice
 
 SORT_EVERY = 20
@@ -84,6 +86,9 @@ class Runner:
         self.wall_before = 0.0
         self.last_checkpoint = None
         self.restart = restart
+        self.probes = Probes(self.world, self.output.probes, sim.particles, names,
+                             restart.get("probes") if restart else None) \
+            if self.output.probes else None
         if restart:
             self.restore(restart)
 
@@ -263,6 +268,10 @@ class Runner:
             os.path.join(self.out, "elements.h5"), self.sim.elements, names,
             self.world.raw, restart_frame=r["frame_index"] if r else None) \
             if self.sim.elements else None
+        self.probe_writer = ProbeWriter(
+            self.out, self.probes.names, PROBE_COLUMNS,
+            restart_step=r["step"] if r else None) \
+            if self.probes and self.world.is_root else None
         self.history = io.HistoryWriter(
             os.path.join(self.out, "history.csv"), names,
             restart_step=r["step"] if r else None) if self.world.is_root else None
@@ -298,6 +307,10 @@ class Runner:
                     for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
                              (e["kinetic"], e["internal"], e["total"]), rows)
+        if self.probes:
+            values = self.probes.sample(self.sim.particles)
+            if self.probe_writer:
+                self.probe_writer.rows(self.sim.step_count, self.sim.time, values)
 
     def checkpoint_due(self, at_frame):
         if not self.output.checkpoints:
@@ -313,6 +326,7 @@ class Runner:
                    "frame_index": self.frame_index, "step_wall": self.step_wall,
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    "body_mass0": self.mass0.tolist(),
+                   "probes": self.probes.state() if self.probes else {},
                    **sim.restart_state()}
         case = None if self.case is None else {"text": self.case_text, "case": self.case}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
@@ -340,6 +354,8 @@ class Runner:
             self.element_writer.close()
         if self.history is not None:
             self.history.close()
+        if getattr(self, "probe_writer", None):
+            self.probe_writer.close()
 
     def summary(self):
         sim = self.sim

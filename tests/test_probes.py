@@ -1,0 +1,69 @@
+"""Probes (output.probes, issue 26): particles followed through the run, their history
+in probe_NAME.csv; the same on 1 and 2 ranks and through a restart."""
+import csv
+import os
+
+import numpy as np
+import pytest
+
+from clihelp import BAR, BAR_HALF_END, run_ok
+from pmpm.io.derived import stress_invariants
+from pmpm.post import read_frame
+
+PROBES = "output.probes=[{name: tip, body: bar, point: [0, 0, 0]}, " \
+         "{name: top, body: bar, point: [1, 0, 6]}]"
+
+
+def read_probe(out, name):
+    with open(os.path.join(out, f"probe_{name}.csv"), newline="", encoding="utf-8") as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array(rows[1:], dtype=float)
+
+
+def nearest_id(frame, point):
+    d2 = ((frame["x"] - np.asarray(point)) ** 2).sum(axis=1)
+    return frame["id"][np.lexsort((frame["id"], d2))[0]]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    base = tmp_path_factory.mktemp("probes")
+    outs = {ranks: base / f"r{ranks}" for ranks in (1, 2)}
+    for ranks, out in outs.items():
+        run_ok([BAR, "--out", out, "--quiet", "--set", PROBES], ranks)
+    return outs
+
+
+def test_a_probe_follows_the_particle_nearest_its_point(runs):
+    out = runs[1]
+    first, last = read_frame(out, 0), read_frame(out, -1)
+    for name, point in (("tip", (0, 0, 0)), ("top", (1, 0, 6))):
+        header, rows = read_probe(out, name)
+        assert header[:8] == ["step", "time", "x", "y", "z", "vx", "vy", "vz"]
+        assert header[-3:] == ["eps_p", "pressure", "von_mises"]
+        k = int(np.flatnonzero(last["id"] == nearest_id(first, point))[0])
+        assert rows[-1, 1] == last["time"]
+        assert np.array_equal(rows[-1, 2:5], last["x"][k])
+        assert np.array_equal(rows[-1, 5:8], last["v"][k])
+        assert np.array_equal(rows[-1, 8:14], last["stress"][k])
+        pressure, von_mises = stress_invariants(last["stress"][k:k + 1])
+        assert rows[-1, 15] == pressure[0] and rows[-1, 16] == von_mises[0]
+        assert rows[0, 0] == 0 and rows[-1, 0] == 48
+    tip = read_probe(out, "tip")[1]
+    assert tip[-1, 14] > 0.0              # the impact face has yielded
+
+
+def test_two_ranks_give_the_one_rank_probes(runs):
+    for name in ("tip", "top"):
+        one, two = read_probe(runs[1], name)[1], read_probe(runs[2], name)[1]
+        assert one.shape == two.shape
+        assert np.allclose(one, two, rtol=1e-10, atol=1e-9)
+
+
+def test_a_restart_continues_the_probe_files(tmp_path, runs):
+    out = tmp_path / "cut"
+    run_ok([BAR, "--out", out, "--quiet", "--set", PROBES,
+            "--set", f"time.end={BAR_HALF_END}"])
+    run_ok([BAR, "--out", out, "--quiet", "--restart", "--set", PROBES])
+    for name in ("tip", "top"):
+        assert np.array_equal(read_probe(out, name)[1], read_probe(runs[1], name)[1])
