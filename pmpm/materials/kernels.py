@@ -29,12 +29,13 @@ passes the particle columns, and LLVM schedules the whole update at once. Numba'
 IR-level inlining (``inline="always"``), used before, gave the same machine code but typed
 the whole update afresh in every kernel specialisation (each shape, with and without
 contact): two thirds of the cold compile of :func:`pmpm.kernels.mpm.stress_and_forces`
-(docs/performance.md, "Cold compile"). Inside, the arrays are read first and written last, outside any
-branch, and every division goes through :func:`pmpm.materials.tensors.fdiv`: an array
-touched in a branch, or a ZeroDivisionError path, keeps Numba's reference counting of
-the arrays alive in the compiled loop (atomic operations on every particle). The update
-itself (:func:`material_step`) works on values only; it is bound by its chain of
-dependent divisions and square roots more than by its arithmetic, so:
+(docs/performance-notes.md, "Cold compile"). Inside, the arrays are read first and
+written last, outside any branch, and every division goes through
+:func:`pmpm.materials.tensors.fdiv`: an array touched in a branch, or a ZeroDivisionError
+path, keeps Numba's reference counting of the arrays alive in the compiled loop (atomic
+operations on every particle). The update itself (:func:`material_step`) works on values
+only; it is bound by its chain of dependent divisions and square roots more than by its
+arithmetic, so:
 
 * with an EOS, the Hugoniot at the new density is evaluated once and serves the pressure
   and both wave speeds, the stiffness ``rho dp/drho`` is written ``kt0 + kt1 P`` and the
