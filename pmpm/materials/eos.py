@@ -15,7 +15,7 @@ from .layout import (EOS_C0, EOS_GAMMA0, EOS_LINEAR, EOS_MIE_GRUNEISEN, EOS_S, E
 from .tensors import fdiv
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def mie_gruneisen_reference(mu, rho0, c0, s, gamma0):
     """Mie-Grueneisen pressure at zero internal energy (seed 001 Eq. 38 with E_n = 0).
 
@@ -50,7 +50,7 @@ def mie_gruneisen_reference(mu, rho0, c0, s, gamma0):
     return fdiv(rho0 * c0 * c0 * (mu * (1.0 + mu) - 0.5 * gamma0 * mu * mu), den * den)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def mie_gruneisen_pressure(mu, e_n, rho0, c0, s, gamma0):
     """Mie-Grueneisen pressure, seed 001 Eq. 38: reference pressure plus ``gamma0 E_n``.
 
@@ -59,7 +59,7 @@ def mie_gruneisen_pressure(mu, e_n, rho0, c0, s, gamma0):
     return mie_gruneisen_reference(mu, rho0, c0, s, gamma0) + gamma0 * e_n
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def mie_gruneisen_tangent(mu, pressure, rho0, c0, s, gamma0):
     """Isentropic slope ``dp/drho`` of the Mie-Grueneisen EOS (the square of a sound speed).
 
@@ -84,7 +84,7 @@ def mie_gruneisen_tangent(mu, pressure, rho0, c0, s, gamma0):
     return fdiv(dref + fdiv(gamma0 * pressure, (1.0 + mu) * (1.0 + mu)), rho0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def eos_at_density(eos_type, rho, rho0, c0, s, gamma0):
     """Everything of an EOS at density ``rho`` that does not depend on the energy.
 
@@ -177,7 +177,7 @@ def eos_tangent(prm, rho, pressure):
     return 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def bulk_viscosity(rho, h, c, div, q_linear, q_quadratic):
     """Artificial bulk viscosity pressure (von Neumann-Richtmyer plus a linear term).
 

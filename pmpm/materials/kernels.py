@@ -22,15 +22,20 @@ tension positive, pressure positive in compression.
 
 Speed
 -----
-:func:`update_stress` and every helper it calls are inlined at Numba IR level
-(``inline="always"``), :func:`update_stress` itself into the caller's particle loop: no
-tuple goes through memory, no call passes the particle columns, and LLVM schedules the
-whole update at once. Inside, the arrays are read first and written last, outside any
-branch, and every division goes through :func:`pmpm.materials.tensors.fdiv`: an array
-touched in a branch, or a ZeroDivisionError path, keeps Numba's reference counting of
-the arrays alive in the compiled loop (atomic operations on every particle). The update
-itself (:func:`material_step`) works on values only; it is bound by its chain of
-dependent divisions and square roots more than by its arithmetic, so:
+:func:`update_stress` and every helper it calls are compiled once each and marked for
+LLVM to inline (``forceinline=True``, LLVM's ``alwaysinline``): the linked kernel holds
+the whole update in the caller's particle loop, so no tuple goes through memory, no call
+passes the particle columns, and LLVM schedules the whole update at once. Numba's
+IR-level inlining (``inline="always"``), used before, gave the same machine code but typed
+the whole update afresh in every kernel specialisation (each shape, with and without
+contact): two thirds of the cold compile of :func:`pmpm.kernels.mpm.stress_and_forces`
+(docs/performance-notes.md, "Cold compile"). Inside, the arrays are read first and
+written last, outside any branch, and every division goes through
+:func:`pmpm.materials.tensors.fdiv`: an array touched in a branch, or a ZeroDivisionError
+path, keeps Numba's reference counting of the arrays alive in the compiled loop (atomic
+operations on every particle). The update itself (:func:`material_step`) works on values
+only; it is bound by its chain of dependent divisions and square roots more than by its
+arithmetic, so:
 
 * with an EOS, the Hugoniot at the new density is evaluated once and serves the pressure
   and both wave speeds, the stiffness ``rho dp/drho`` is written ``kt0 + kt1 P`` and the
@@ -64,7 +69,7 @@ if N_SLOTS != 24:
     raise ImportError("update_stress reads a parameter row of 24 slots: update it with layout")
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def advance_deformation_gradient(f, l, dt):
     """``(I + Lg dt) F`` for ``F`` (``f``) and ``Lg`` (``l``) given as row-major 9-tuples."""
     f0, f1, f2, f3, f4, f5, f6, f7, f8 = f
@@ -79,7 +84,7 @@ def advance_deformation_gradient(f, l, dt):
             a20 * f2 + a21 * f5 + a22 * f8)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def neo_hookean_stress(f, g, k):
     """Compressible Neo-Hookean Cauchy stress from a deformation gradient.
 
@@ -113,7 +118,7 @@ def neo_hookean_stress(f, g, k):
     return s, pressure
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def neo_hookean_wave_speed(f, g, k, rho):
     """Largest longitudinal wave speed of the compressible Neo-Hookean solid at ``F``
     (``f``, ``g``, ``k`` as in :func:`neo_hookean_stress`) and current density ``rho``.
@@ -144,13 +149,13 @@ def neo_hookean_wave_speed(f, g, k, rho):
     return math.sqrt(fdiv(max(stiffness, 0.0), jac * rho))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def has_failed(eps_p, eps_fail):
     """Particle failure of seed 001 Sec. 5.3: ``eps_fail > 0`` and ``eps_p >= eps_fail``."""
     return eps_fail > 0.0 and eps_p >= eps_fail
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, t_room,
                  t_melt, cp, chi, eps_fail):
     """Return map, plastic strain, adiabatic heating and failure of one particle.
@@ -207,7 +212,7 @@ def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, 
     return scale(s_trial, ratio), ratio, eps1, temp1, ok
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def energy_known_pressure(e_old, work_dev, p_old, p_new, q, dvs, v_mid):
     """Specific internal energy after a step whose end pressure is known.
 
@@ -219,7 +224,7 @@ def energy_known_pressure(e_old, work_dev, p_old, p_new, q, dvs, v_mid):
     return e_old + (work_dev * v_mid - (0.5 * (p_old + p_new) + q) * dvs)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def pressure_and_energy(a, b, e_old, work_dev, p_old, q, dvs, v_mid):
     """End-of-step pressure and specific energy for an EOS ``p = a + b e``.
 
@@ -241,7 +246,7 @@ def pressure_and_energy(a, b, e_old, work_dev, p_old, q, dvs, v_mid):
     return a + b * e_new, e_new
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def bulk_stiffness(code, k_bulk, has_eos, kt0, kt1, pressure, rho, c0):
     """``K_t`` of :func:`wave_speed` at ``pressure``; with an EOS ``rho dp/drho`` is
     ``kt0 + kt1 pressure`` (:func:`pmpm.materials.eos.eos_at_density`)."""
@@ -253,13 +258,13 @@ def bulk_stiffness(code, k_bulk, has_eos, kt0, kt1, pressure, rho, c0):
     return k_t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def speed_from_stiffness(k_t, g43, rho):
     """``sqrt((K_t + 4G/3)/rho)``, ``g43 = 4G/3``."""
     return math.sqrt(fdiv(max(k_t + g43, 0.0), rho))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def speed_from_inverse(k_t, g43, inv_rho):
     """``sqrt((K_t + 4G/3) / rho)`` with ``inv_rho = 1/rho`` (a multiply, not a division,
     at the end of the chain of a step with an EOS)."""
@@ -305,7 +310,7 @@ def wave_speed(code, prm, rho, pressure):
     return speed_from_inverse(k_t, g43, fdiv(1.0, rho))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old, temp_old,
                   q_old):
     """One particle's constitutive step on values (the arithmetic of :func:`update_stress`).
@@ -430,7 +435,7 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
             temp1, q_new)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def update_stress(p, code, prm, dt, h, Lg, mat):
     """Advance the stress and state of particle ``p`` over one step.
 
@@ -483,7 +488,7 @@ def update_stress(p, code, prm, dt, h, Lg, mat):
     the Rankine-Hugoniot energy exactly). ``q`` (stored, not added to the stress) uses the
     sound speed at the new density and old pressure.
 
-    Inlined into its caller (see the module's notes on speed). Every column is read before
+    Inlined into its caller by LLVM (see the module's notes on speed). Every column is read before
     and written after :func:`material_step`, outside any branch; a failed update writes
     back the values it read.
     """
@@ -491,7 +496,7 @@ def update_stress(p, code, prm, dt, h, Lg, mat):
                                  mat.eps_p, mat.e_int, mat.temp, mat.q)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def update_stress_columns(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q):
     """:func:`update_stress` on the material columns themselves (the particle loops
     unpack the record once, outside the loop)."""

@@ -18,7 +18,7 @@ MAX_NEWTON = 50
 NEWTON_RTOL = 1e-11
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def hardening(a, b, n, eps):
     """Strain-hardening term ``a + b eps^n``."""
     if eps <= 0.0:
@@ -28,7 +28,7 @@ def hardening(a, b, n, eps):
     return a + b * eps ** n
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def hardening_slope_in_t(b, n, k, dlam, eps):
     """Slope of ``b eps^n`` with respect to ``t``, where ``dlam = t^k`` and ``eps`` is the
     plastic strain after the increment.
@@ -52,7 +52,7 @@ def hardening_slope_in_t(b, n, k, dlam, eps):
     return n * b * eps ** (n - 1.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def rate_factor(c, eps_dot0, dlam, dt):
     """Johnson-Cook rate factor ``1 + c ln max(eps_dot_p/eps_dot0, 1)``.
 
@@ -67,7 +67,7 @@ def rate_factor(c, eps_dot0, dlam, dt):
     return 1.0 + c * math.log(ratio)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def thermal_factor(m, temp, t_room, t_melt):
     """Johnson-Cook thermal softening ``1 - T*^m``, ``T* = (T - T_room)/(T_melt - T_room)``.
 
@@ -80,7 +80,7 @@ def thermal_factor(m, temp, t_room, t_melt):
     return 1.0 - t_star ** m
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta):
     """Flow stress after a plastic increment ``dlam`` at the rate ``dlam/dt``.
 
@@ -90,7 +90,7 @@ def flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta):
             * rate_factor(c, eps_dot0, dlam, dt))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def flow_stress_slope_in_t(t, k, eps_p, dt, a, b, n, c, eps_dot0, theta):
     """``d sigma_y / dt`` for ``dlam = t^k`` (see :func:`plastic_multiplier`)."""
     dlam = t ** k
@@ -101,7 +101,7 @@ def flow_stress_slope_in_t(t, k, eps_p, dt, a, b, n, c, eps_dot0, theta):
                     + hardening(a, b, n, eps) * drate)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     """Equivalent plastic strain increment of a radial return.
 
@@ -146,7 +146,7 @@ def plastic_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     return dlam, sigma_y, converged
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def plastic_increment(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     """:func:`plastic_multiplier` and the radial-return factor of the stress kernel.
 
@@ -176,7 +176,7 @@ def plastic_increment(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta):
     return dlam, sigma_y, fdiv(sigma_y, q_trial), converged
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def newton_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta, sy0, tol):
     """The safeguarded Newton iteration of :func:`plastic_multiplier`, for a step that yields
     (``q_trial - sy0 > tol``).
@@ -224,7 +224,7 @@ def newton_multiplier(q_trial, g, eps_p, dt, a, b, n, c, eps_dot0, theta, sy0, t
     return dlam, flow_stress(dlam, eps_p, dt, a, b, n, c, eps_dot0, theta), False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def radial_return(s_trial, q_trial, sigma_y):
     """Scale the trial deviator back onto the yield surface: ``s = s_trial sigma_y/q_trial``."""
     if q_trial <= sigma_y:

@@ -4,9 +4,11 @@ A symmetric tensor is a tuple ``(t_xx, t_yy, t_zz, t_xy, t_yz, t_zx)`` of float6
 *tensor* (not engineering) shear components, the storage order of ``stress`` (see
 docs/CONTRACTS.md). Tuples live in registers, so these helpers allocate nothing, which
 keeps the per-particle path of the fused stress kernel free of heap traffic. Every helper
-is inlined into its caller at Numba IR level (``inline="always"``): a 6-tuple passed to or
-returned from a separately compiled function goes through memory, an inlined one stays in
-registers.
+is compiled once and marked for LLVM to inline it into its caller (``forceinline=True``,
+LLVM's ``alwaysinline``): a 6-tuple passed to or returned from a call that stays a call
+goes through memory, an inlined one stays in registers. (Numba's IR-level
+``inline="always"`` gives the same code but types the body again at every call site of
+every kernel specialisation, which made the cold compile slow.)
 """
 import math
 
@@ -14,7 +16,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def fdiv(a, b):
     """IEEE quotient ``a / b`` of two floats: inf or NaN for ``b == 0``, never an exception.
 
@@ -31,7 +33,7 @@ def fdiv(a, b):
     return np.divide(a, b)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def strain_rate(Lg):
     """Rate of deformation D = sym(Lg) as a Voigt 6-tuple.
 
@@ -51,7 +53,7 @@ def strain_rate(Lg):
             0.5 * (Lg[2, 0] + Lg[0, 2]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def spin(Lg):
     """Independent components of the spin W = skew(Lg).
 
@@ -66,7 +68,7 @@ def spin(Lg):
             0.5 * (Lg[2, 0] - Lg[0, 2]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def sym9(l):
     """:func:`strain_rate` of a velocity gradient given as a row-major 9-tuple."""
     return (l[0], l[4], l[8],
@@ -75,7 +77,7 @@ def sym9(l):
             0.5 * (l[6] + l[2]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def skew9(l):
     """:func:`spin` of a velocity gradient given as a row-major 9-tuple."""
     return (0.5 * (l[1] - l[3]),
@@ -83,32 +85,32 @@ def skew9(l):
             0.5 * (l[6] - l[2]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def trace(t):
     """Trace of a Voigt 6-tuple."""
     return t[0] + t[1] + t[2]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def deviator(t):
     """Deviatoric part ``t - tr(t)/3 I`` of a Voigt 6-tuple."""
     m = (t[0] + t[1] + t[2]) / 3.0
     return (t[0] - m, t[1] - m, t[2] - m, t[3], t[4], t[5])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def scale(t, a):
     """``a * t`` for a Voigt 6-tuple ``t`` and a scalar ``a``."""
     return (a * t[0], a * t[1], a * t[2], a * t[3], a * t[4], a * t[5])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def add(a, b):
     """Sum of two Voigt 6-tuples."""
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def double_dot(a, b):
     """Full contraction ``a : b = a_ij b_ij`` of two symmetric tensors.
 
@@ -120,20 +122,20 @@ def double_dot(a, b):
             + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def von_mises(s):
     """Von Mises equivalent stress ``sqrt(3/2 s:s)`` of a deviator ``s``."""
     return math.sqrt(1.5 * double_dot(s, s))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def all_finite(t):
     """True when every component of a Voigt 6-tuple is finite."""
     return (math.isfinite(t[0]) and math.isfinite(t[1]) and math.isfinite(t[2])
             and math.isfinite(t[3]) and math.isfinite(t[4]) and math.isfinite(t[5]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def jaumann_rotate(sig, w, dt):
     """Rotate a stress with the spin over one step: ``sig + (W sig - sig W) dt``.
 
@@ -172,13 +174,13 @@ def jaumann_rotate(sig, w, dt):
             sxy + rxy * dt, syz + ryz * dt, szx + rzx * dt)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def load_row6(a, p):
     """Row ``p`` of an (n, 6) array as a 6-tuple."""
     return (a[p, 0], a[p, 1], a[p, 2], a[p, 3], a[p, 4], a[p, 5])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def store_stress(stress, p, s, pressure):
     """Write ``s - pressure I`` (deviator ``s``, pressure positive in compression) to row p."""
     stress[p, 0] = s[0] - pressure
@@ -189,14 +191,14 @@ def store_stress(stress, p, s, pressure):
     stress[p, 5] = s[5]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def determinant9(f):
     """det F for a row-major 9-tuple."""
     return (f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6])
             + f[2] * (f[3] * f[7] - f[4] * f[6]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def left_cauchy_green(f):
     """B = F F^T of a row-major 9-tuple, as Voigt (xx, yy, zz, xy, yz, zx)."""
     return (f[0] * f[0] + f[1] * f[1] + f[2] * f[2],
