@@ -11,12 +11,16 @@
 
     python scripts/ogive_fem_budget.py CASE.yaml --out DIR [--set KEY=VALUE ...] [--every US]
 
-Prints, every ``--every`` microseconds, the time, the rod's speed along -z (nodes and its
-converted particles, mass-weighted), the cumulative speed each mechanism took (its
-impulse over the rod's mass), the plate elements converted so far, and the plate
-elements left that are strongly compressed (volume below half their initial) but below
-the conversion strain; writes the rows to DIR/budget.json. A diagnosis tool, not a test:
-it wraps the contact kernels' Python entry points and does not change a result."""
+Prints, every ``--every`` microseconds (default 5), the time, the rod's speed along -z
+(nodes and its converted particles, mass-weighted), the cumulative speed each mechanism
+took (its impulse over the rod's mass; ``node_rs_shank`` the part of ``node_rs`` on the
+rod's nodes behind the nose), the kinetic energy each contact's impulses took from all
+nodes and particles (``node_loss``, ``icfemp_loss``, mJ), the plate elements converted
+so far, how many plate elements are left below half their initial volume
+(``squeezed``), the largest plastic strain of the plate's elements left and of the
+rod's, and the energies of the plate, the rod and the converted particles; writes the
+rows to DIR/budget.json (one rank only: the sums are one rank's). A diagnosis tool,
+not a test: it wraps the contact kernels' Python entry points and does not change a result."""
 import json
 import os
 import sys
@@ -191,6 +195,9 @@ def main():
         del argv[at:at + 2]
     BUDGET.every = every * 1e-3
     out = argv[argv.index("--out") + 1]
+    from mpi4py import MPI
+    if MPI.COMM_WORLD.size > 1:
+        sys.exit("ogive_fem_budget.py: run it on one rank (its sums are one rank's)")
     wrap_kernels()
     wrap_couplings()
     from pmpm.__main__ import main as pmpm_main
