@@ -157,3 +157,12 @@ def interior_nodes(block, face_lo, face_hi):
     first = np.maximum(block.lo, face_lo + 1)
     last = np.minimum(block.lo + block.shape - 1, face_hi - 1)
     return int(np.prod(np.maximum(last - first + 1, 0)))
+
+
+def kept_copy(kept, array):
+    """``array`` copied into ``kept`` when the shapes agree (no allocation in the time
+    loop while the counts stay), else a fresh copy: for start-of-step positions."""
+    if kept is None or kept.shape != array.shape:
+        return array.copy()
+    np.copyto(kept, array)
+    return kept

@@ -69,7 +69,7 @@ from ..kernels import surface_contact as ksc
 from .contact import SURFACE_COUPLING
 from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
                            totals_at_holders)
-from .couplings import Coupling
+from .couplings import Coupling, kept_copy
 from .errors import SetupError
 from .fem_grid import grid_coupled_bodies
 from .surface_contact import MAX_BUCKETS, free_face_mask, joined_segments, shapes
@@ -216,7 +216,7 @@ class NodeContact(Coupling):
     def after_scatter(self, grids, kinds):
         """Keep the nodes' start-of-step positions: the search tells from them on which
         side of a face a node that is now behind it was."""
-        self.start_x = self.elements.x.copy()
+        self.start_x = kept_copy(self.start_x, self.elements.x)
 
     def slave_moves(self):
         """How far each slave node moved in the step so far."""

@@ -83,7 +83,7 @@ from ..kernels import surface_contact as ksc
 from .contact import SURFACE_COUPLING
 from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
                            totals_at_holders)
-from .couplings import Coupling
+from .couplings import Coupling, kept_copy
 
 #: the share of a particle centre's depth inside a face that its pair closes in a step,
 #: by moving the particle's position out (not its velocity: no energy, no momentum)
@@ -195,8 +195,8 @@ class SurfaceContact(Coupling):
     def after_scatter(self, grids, kinds):
         """Keep the start-of-step positions of the particles and FE nodes: the search
         tells from them on which side of a face a centre that is now inside it was."""
-        self.start_x = self.points.particles.x.copy()
-        self.start_node_x = self.elements.x.copy()
+        self.start_x = kept_copy(self.start_x, self.points.particles.x)
+        self.start_node_x = kept_copy(self.start_node_x, self.elements.x)
 
     def after_update_points(self, dt):
         segs = self.with_halo(self.own_segments())
