@@ -232,8 +232,8 @@ def test_docs_example_loads(tmp_path):
                                         "mean 'radius'?)"),
     ({"bodies__0__geometry__radius": None}, "bodies[0].geometry.radius: missing (required)"),
     ({"bodies__0__geometry__type": "cone"},
-     "bodies[0].geometry.type: unknown geometry type 'cone'; known: box, cylinder, mesh, "
-     "ogive, prism, sphere"),
+     "bodies[0].geometry.type: unknown geometry type 'cone'; known: box, cylinder, "
+     "difference, mesh, ogive, points, prism, sphere, surface, union"),
     ({"bodies__0__velocity": [0, 0]}, "bodies[0].velocity: expected a list of 3 numbers"),
     ({"bodies__0__particles_per_cell": 0},
      "bodies[0].particles_per_cell: must be >= 1, got 0"),
