@@ -244,6 +244,7 @@ def bad_cloud(tmp_path):
     write_csv(tmp_path / "far.csv", x, np.ones(10))
     with h5py.File(tmp_path / "cloud.h5", "w") as f:
         f["position"] = x
+    (tmp_path / "text.csv").write_text("# exported\nx,y,z,vol\n1,2,3,0.1\n1,2,oops,0.1\n")
 
 
 @pytest.mark.parametrize("geometry, key, words", [
@@ -264,6 +265,8 @@ def bad_cloud(tmp_path):
     ({"file": "cloud.h5", "coordinates": ["pos"], "spacing": 0.1}, "coordinates",
      "'cloud.h5' has no dataset 'pos' (its datasets: position)"),
     ({"file": "cloud.csv", "spacing": -1}, "spacing", "must be > 0"),
+    ({"file": "text.csv", "volume": "vol"}, "file",
+     "'text.csv': expected numbers in columns x, y, z, vol below the header (line 2)"),
 ])
 def test_bad_point_files_are_refused_naming_the_key(tmp_path, geometry, key, words):
     bad_cloud(tmp_path)
