@@ -414,3 +414,30 @@ def test_an_unknown_gmsh_group_is_refused_with_the_known_ones(tmp_path):
     [line] = error.value.problems
     assert line == ("bodies[0].fem.constraints[0].node_set: unknown node set 'TOP'; "
                     "known: BASE, SOLID"), line
+
+
+def test_gmsh_groups_of_points_and_lines_are_node_sets_too(tmp_path):
+    """Groups of any dimension: a physical point (the corner node) and a physical curve
+    (the two edges along x at y = z = 0: three nodes); a tag reused by groups of other
+    dimensions picks only the cells of its own."""
+    from pmpm.case.hexmesh import read_node_sets
+    points, hexes, quads = block_with_base()
+    corner = np.flatnonzero((points == 0).all(axis=1))
+    edge = np.flatnonzero((points[:, 1] == 0) & (points[:, 2] == 0))
+    edge = edge[np.argsort(points[edge, 0])]
+    lines = np.stack([edge[:-1], edge[1:]], axis=1)
+    meshio.write(str(tmp_path / "block.msh"), meshio.Mesh(
+        points, [("hexahedron", hexes), ("quad", quads), ("line", lines),
+                 ("vertex", corner[:, None])],
+        cell_data={"gmsh:physical": [np.full(len(hexes), 1), np.full(len(quads), 2),
+                                     np.full(len(lines), 1), np.full(1, 1)],
+                   "gmsh:geometrical": [np.full(len(hexes), 1), np.full(len(quads), 1),
+                                        np.full(len(lines), 1), np.full(1, 1)]},
+        field_data={"SOLID": np.array([1, 3]), "BASE": np.array([2, 2]),
+                    "EDGE": np.array([1, 1]), "CORNER": np.array([1, 0])}),
+        file_format="gmsh22", binary=False)
+    sets = read_node_sets(tmp_path / "block.msh")
+    assert sorted(sets) == ["BASE", "CORNER", "EDGE", "SOLID"]
+    assert sets["CORNER"].tolist() == corner.tolist()
+    assert sorted(sets["EDGE"].tolist()) == sorted(edge.tolist()) and len(edge) == 3
+    assert len(sets["BASE"]) == 9 and len(sets["SOLID"]) == 27
