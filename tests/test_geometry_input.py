@@ -441,3 +441,17 @@ def test_gmsh_groups_of_points_and_lines_are_node_sets_too(tmp_path):
     assert sets["CORNER"].tolist() == corner.tolist()
     assert sorted(sets["EDGE"].tolist()) == sorted(edge.tolist()) and len(edge) == 3
     assert len(sets["BASE"]) == 9 and len(sets["SOLID"]) == 27
+
+
+def test_an_stl_box_under_a_refined_window_keeps_its_volume(tmp_path):
+    """Inside a window of ratio 2 the surface is filled at half the spacing (8 times the
+    particles per volume), outside it at the coarse spacing: the volume stays exact."""
+    points, quads = cube_surface(4)
+    write_stl(tmp_path / "box.stl", (points + 1) * [2, 3, 1], triangles(quads))
+    tree = case_tree({"type": "surface", "file": "box.stl"})
+    tree["grid"]["windows"] = [{"min": [-2, -2, -2], "max": [2, 8, 4], "ratio": 2}]
+    case = load_case(write_case(tmp_path, tree))
+    x, vol = fill_body(case["bodies"][0], case["grid"], str(tmp_path))
+    assert vol.sum() == pytest.approx(4 * 6 * 2, rel=1e-12)
+    fine = x[:, 0] < 2
+    assert fine.sum() == 2 * 6 * 2 * 64 and (~fine).sum() == 2 * 6 * 2 * 8

@@ -122,8 +122,7 @@ def lattice_points_in_surface(points, triangles, anchor, spacing, clip=None):
 def _crossings(points, triangles, axis, anchor, spacing, first, counts):
     """(starts, ts): the crossings along ``axis`` of every column, sorted, column c's
     being ts[starts[c]:starts[c + 1]]."""
-    _, cols, ts = column_crossings(points, triangles, axis, anchor, spacing, first,
-                                   counts, True)
+    cols, ts = column_crossings(points, triangles, axis, anchor, spacing, first, counts)
     a, b = (axis + 1) % 3, (axis + 2) % 3
     order = np.lexsort((ts, cols))
     cols, ts = cols[order], ts[order]

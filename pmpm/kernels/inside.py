@@ -47,18 +47,17 @@ def _covers(points, tri, a, b, pa, pb, orient):
 
 
 @njit(cache=True)
-def column_crossings(points, triangles, axis, anchor, spacing, first, counts, fill):
-    """Crossings of the surface with the lattice columns along ``axis``: returns how many
-    there are; when ``fill`` is True also (column ids, coordinate along the axis) in the
-    arrays returned. The columns are the lattice points anchor + (i + 1/2) spacing with
+def column_crossings(points, triangles, axis, anchor, spacing, first, counts):
+    """Crossings of the surface with the lattice columns along ``axis``: (column ids,
+    coordinates along the axis), counted in a first sweep over the triangles and stored
+    in a second. The columns are the lattice points anchor + (i + 1/2) spacing with
     index i[a] in first[a] .. first[a] + counts[a] - 1 for the other two axes (a, b),
     numbered (i[a] - first[a]) * counts[b] + (i[b] - first[b])."""
     a, b = (axis + 1) % 3, (axis + 2) % 3
     total = 0
-    n_out = 0
     cols = np.empty(0, np.int64)
     ts = np.empty(0, np.float64)
-    for sweep in range(2 if fill else 1):
+    for sweep in range(2):
         if sweep == 1:
             cols = np.empty(total, np.int64)
             ts = np.empty(total, np.float64)
@@ -98,7 +97,7 @@ def column_crossings(points, triangles, axis, anchor, spacing, first, counts, fi
                                                 + normal[1] * (pb - p0[b])) / area
                     n_out += 1
         total = n_out
-    return total, cols, ts
+    return cols, ts
 
 
 @njit(cache=True)
