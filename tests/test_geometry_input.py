@@ -184,6 +184,11 @@ def test_points_from_csv_are_the_files_particles_and_volumes(tmp_path):
                                        "spacing": 0.25, "scale": 2.0,
                                        "translate": [1, 0, 0]})
     assert (got_x == 2 * x + [1, 0, 0]).all() and (got_vol == 0.25 ** 3).all()
+    got_x, _ = filled(tmp_path, {"type": "points", "file": "cloud.csv", "spacing": 0.25,
+                                 "translate": [1, 0, 0],
+                                 "rotate": {"axis": [0, 0, 1], "angle_deg": 90}})
+    turned = np.stack([1 - x[:, 1], x[:, 0], x[:, 2]], axis=1)   # about (1, 0, 0)
+    assert np.abs(got_x - turned).max() < 1e-12
 
 
 def test_points_from_csv_with_named_columns_and_scaled_volumes(tmp_path):
