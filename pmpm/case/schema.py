@@ -104,6 +104,13 @@ OUTPUT = {
                              "to save disk; a SIGTERM or SIGINT still writes one so that "
                              "the run can be continued)"),
     "progress": Field(boolean(), True, doc="print progress lines (rank 0)"),
+    "forces": Field(boolean(), True,
+                    doc="write forces.csv at every history row: the contact force on each "
+                        "body from each other body (x, y, z, normal, tangential), the "
+                        "reaction of each constrained grid face and of each FEM body's "
+                        "constrained nodes, as the mean force since the previous row "
+                        "(force units: g mm/ms^2 = N in mm-ms-g), so that a column "
+                        "integrated over time is the impulse"),
     "every": Field(number(greater(0)), None, "ms",
                    "a frame at every multiple of this time, besides `frames` (given "
                    "without `frames`, only these and the final frame are written)"),

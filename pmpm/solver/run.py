@@ -7,6 +7,7 @@ import numpy as np
 from .. import io
 from ..io.derived import with_stress_invariants
 from ..io.elements_h5 import ElementWriter
+from ..io.forces import ForcesWriter
 from ..io.probes import ProbeWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
@@ -272,6 +273,10 @@ class Runner:
             self.out, self.probes.names, PROBE_COLUMNS,
             restart_step=r["step"] if r else None) \
             if self.probes and self.world.is_root else None
+        log = self.sim.force_log
+        self.forces_writer = ForcesWriter(
+            self.out, log.columns(), restart_step=r["step"] if r else None) \
+            if log and self.world.is_root else None
         self.history = io.HistoryWriter(
             os.path.join(self.out, "history.csv"), names,
             restart_step=r["step"] if r else None) if self.world.is_root else None
@@ -307,6 +312,10 @@ class Runner:
                     for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
                              (e["kinetic"], e["internal"], e["total"]), rows)
+        if self.sim.force_log:
+            forces = self.sim.force_log.take_row(self.sim.time)
+            if self.forces_writer:
+                self.forces_writer.row(self.sim.step_count, self.sim.time, forces)
         if self.probes:
             values = self.probes.sample(self.sim.particles)
             if self.probe_writer:
@@ -356,6 +365,8 @@ class Runner:
             self.history.close()
         if getattr(self, "probe_writer", None):
             self.probe_writer.close()
+        if getattr(self, "forces_writer", None):
+            self.forces_writer.close()
 
     def summary(self):
         sim = self.sim
