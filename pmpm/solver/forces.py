@@ -55,6 +55,7 @@ class ForceLog(Coupling):
         self.support = np.zeros((n, 3))
         self.since = 0.0                    # the time of the previous history row
         self.zones = {}
+        self.zone_keys = {}
 
     # -- the step's hooks ------------------------------------------------------------
     def before_reflect(self, grids, what):
@@ -70,6 +71,18 @@ class ForceLog(Coupling):
                 kf.keep_rows(nodes, count, s.force, 5, raw)
 
     def face_zone(self, s):
+        """The level's zone (:func:`pmpm.kernels.forces.face_zone`), kept while its block
+        stays the same (blocks are rebuilt every step, but seldom change)."""
+        b = s.block
+        key = (tuple(b.lo), tuple(b.shape), tuple(b.shared_planes), len(s.mirror))
+        kept = self.zone_keys.get(s.index)
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        zone = self.new_zone(s)
+        self.zone_keys[s.index] = (key, zone)
+        return zone
+
+    def new_zone(self, s):
         b = s.block
         n_nodes = b.n_nodes
         nodes = np.empty(n_nodes, np.int64)
