@@ -301,6 +301,8 @@ class Runner:
                 f"step {self.sim.step_count} (t = {self.sim.time:.6g}): the energies are "
                 f"not finite (kinetic {e['kinetic']:.3g}, internal {e['internal']:.3g}): "
                 f"a material value, load or velocity overflows double precision")
+        log = self.sim.force_log
+        forces = log.take_row(self.sim.time) if log else None
         self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
             self.config.gravity), self.world.sum(self.local_load_work))
         fault = self.watch.fault_line(self.sim.time)
@@ -312,8 +314,7 @@ class Runner:
                     for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
                              (e["kinetic"], e["internal"], e["total"]), rows)
-        if self.sim.force_log:
-            forces = self.sim.force_log.take_row(self.sim.time)
+        if forces is not None:
             if self.forces_writer:
                 self.forces_writer.row(self.sim.step_count, self.sim.time, forces)
         if self.probes:
