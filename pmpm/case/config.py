@@ -124,6 +124,7 @@ class OutputConfig:
     checkpoint_every: int
     checkpoints: bool
     progress: bool
+    forces: bool
     every: float
     probes: tuple
     times: tuple

@@ -104,6 +104,14 @@ OUTPUT = {
                              "to save disk; a SIGTERM or SIGINT still writes one so that "
                              "the run can be continued)"),
     "progress": Field(boolean(), True, doc="print progress lines (rank 0)"),
+    "forces": Field(boolean(), True,
+                    doc="write forces.csv at every history row: the contact force on each "
+                        "body from each other body (x, y, z, normal, tangential) and the "
+                        "energy their contact has dissipated since the start, the "
+                        "reaction of each constrained grid face and of each FEM body's "
+                        "constrained nodes, as the mean force since the previous row "
+                        "(force units: g mm/ms^2 = N in mm-ms-g), so that a column "
+                        "integrated over time is the impulse"),
     "every": Field(number(greater(0)), None, "ms",
                    "a frame at every multiple of this time, besides `frames` (given "
                    "without `frames`, only these and the final frame are written)"),
@@ -117,7 +125,9 @@ OUTPUT = {
     "energy_warning": Field(number(at_least(0)), 0.05, "1",
                             "warn (once) when the energy balance (kinetic + internal + "
                             "gravitational, less the work of loads) has grown by more than "
-                            "this fraction since the start; 0: never"),
+                            "this fraction since the start, and when it has lost more than "
+                            "this fraction (plastic work and hourglass energy are no loss: "
+                            "they stay in the internal energy); 0: never"),
     "energy_fault": Field(number(at_least(0)), 10.0, "1",
                           "stop the run as a fault (exit 1) when the energy balance has "
                           "grown by more than this fraction since the start (10: to 11 "

@@ -92,6 +92,7 @@ class FemBodies:
         self.speed, self.fault = 0.0, None
         self.converted_hourglass = 0.0     # of this rank's elements that became particles
         self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
+        self.force_log = None             # solver.forces.ForceLog, set by the simulation
         self.faces = constrained_faces(config.grid)
         self.box = (np.asarray(config.grid.min, np.float64),
                     np.asarray(config.grid.max, np.float64))
@@ -327,10 +328,24 @@ class FemBodies:
         return self.materials.rigid[self.node_body]
 
     def integrate(self, dt):
+        before = self.v.copy() if self.force_log is not None else None
         advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
         self.hold_at_faces(dt)
+        if before is not None:
+            self.log_reactions(before, dt)
         if self.rigid_motion is not None:          # free rigid bodies: gravity, one V each
             self.rigid_motion.integrate(self, dt)
+
+    def log_reactions(self, before, dt):
+        """The impulses the constraints and the grid faces gave the nodes this rank
+        counts in this step, m (v - v_before) - f dt, to the force log."""
+        counted = self.owned & ~self.rigid_nodes()
+        impulses = (self.mass[counted, None] * (self.v[counted] - before[counted])
+                    - dt * self.force[counted])
+        on_support = self.fixed[counted].any(axis=1)
+        self.force_log.node_reactions(self.node_body[counted], on_support, impulses,
+                                      face_of_impulses(self.faces, impulses,
+                                                       self.x[counted], 1e-9 * self.h))
 
     def hold_at_faces(self, dt):
         """The grid faces' conditions on every node but a rigid body's (module function)."""
@@ -484,6 +499,24 @@ def constrained_faces(grid):
             if kind in ("fixed", "slip", "symmetry"):
                 faces.append((d, side, float(plane), kind == "fixed"))
     return faces
+
+
+def face_of_impulses(faces, impulses, x, tol):
+    """Per node and component, the constrained box face (2 axis + upper, -1: none) that
+    pushed it: the face of that axis the impulse points away from, else (the tangential
+    hold of a fixed face) a fixed face the node lies on."""
+    out = np.full(impulses.shape, -1, np.int64)
+    for d, side, _, _ in faces:
+        pushed = side * impulses[:, d] < 0.0        # into the box from this face
+        out[pushed, d] = 2 * d + (side > 0)
+    for d, side, plane, fixed in faces:
+        if not fixed:
+            continue
+        at = side * (plane - x[:, d]) <= tol
+        for e in range(3):
+            if e != d:
+                out[at & (out[:, e] < 0), e] = 2 * d + (side > 0)
+    return out
 
 
 def hold_at_faces(x, v, faces, movable, dt, tol):

@@ -7,6 +7,7 @@ import numpy as np
 from .. import io
 from ..io.derived import with_stress_invariants
 from ..io.elements_h5 import ElementWriter
+from ..io.forces import ForcesWriter
 from ..io.probes import ProbeWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
@@ -272,6 +273,10 @@ class Runner:
             self.out, self.probes.names, PROBE_COLUMNS,
             restart_step=r["step"] if r else None) \
             if self.probes and self.world.is_root else None
+        log = self.sim.force_log
+        self.forces_writer = ForcesWriter(
+            self.out, log.columns(), restart_step=r["step"] if r else None) \
+            if log and self.world.is_root else None
         self.history = io.HistoryWriter(
             os.path.join(self.out, "history.csv"), names,
             restart_step=r["step"] if r else None) if self.world.is_root else None
@@ -296,6 +301,8 @@ class Runner:
                 f"step {self.sim.step_count} (t = {self.sim.time:.6g}): the energies are "
                 f"not finite (kinetic {e['kinetic']:.3g}, internal {e['internal']:.3g}): "
                 f"a material value, load or velocity overflows double precision")
+        log = self.sim.force_log
+        forces = log.take_row(self.sim.time) if log else None
         self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
             self.config.gravity), self.world.sum(self.local_load_work))
         fault = self.watch.fault_line(self.sim.time)
@@ -307,6 +314,9 @@ class Runner:
                     for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
                              (e["kinetic"], e["internal"], e["total"]), rows)
+        if forces is not None:
+            if self.forces_writer:
+                self.forces_writer.row(self.sim.step_count, self.sim.time, forces)
         if self.probes:
             values = self.probes.sample(self.sim.particles)
             if self.probe_writer:
@@ -356,6 +366,8 @@ class Runner:
             self.history.close()
         if getattr(self, "probe_writer", None):
             self.probe_writer.close()
+        if getattr(self, "forces_writer", None):
+            self.forces_writer.close()
 
     def summary(self):
         sim = self.sim
