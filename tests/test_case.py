@@ -162,7 +162,8 @@ def test_defaults_filled(tmp_path):
     assert case["time"] == {"end": 0.08, "cfl": 0.5, "dt_max": None, "dt": None, "pic": 0.0,
                             "transfer": "flip", "scheme": "usf", "max_steps": 1e8}
     assert case["output"] == {"frames": 10, "history_every": 10, "checkpoint_every": 0,
-                              "checkpoints": True, "progress": True, "forces": True,
+                              "checkpoints": True, "progress": True, "precision": "float64",
+                              "forces": True,
                               "every": None,
                               "probes": [], "times": [], "energy_warning": 0.05, "energy_fault": 10.0}
     assert case["decomposition"] == {"axis": "auto", "rebalance_threshold": 0.2,

@@ -104,6 +104,11 @@ OUTPUT = {
                              "to save disk; a SIGTERM or SIGINT still writes one so that "
                              "the run can be continued)"),
     "progress": Field(boolean(), True, doc="print progress lines (rank 0)"),
+    "precision": Field(choice(("float64", "float32"), "frame precision"), "float64",
+                       doc="floating-point precision of the frames (particles.h5, "
+                           "elements.h5): `float32` halves them on disk (about 7 "
+                           "significant digits); checkpoints stay float64, so a restart "
+                           "is exact either way"),
     "forces": Field(boolean(), True,
                     doc="write forces.csv at every history row: the contact force on each "
                         "body from each other body (x, y, z, normal, tangential) and the "

@@ -5,7 +5,7 @@ import time as clock
 import numpy as np
 
 from .. import io
-from ..io.derived import with_stress_invariants
+from ..io.derived import in_precision, with_stress_invariants
 from ..io.elements_h5 import ElementWriter
 from ..io.forces import ForcesWriter
 from ..io.probes import ProbeWriter
@@ -267,8 +267,8 @@ class Runner:
         self.frame_index = self.writer.n_frames
         self.element_writer = ElementWriter(
             os.path.join(self.out, "elements.h5"), self.sim.elements, names,
-            self.world.raw, restart_frame=r["frame_index"] if r else None) \
-            if self.sim.elements else None
+            self.world.raw, restart_frame=r["frame_index"] if r else None,
+            precision=self.output.precision) if self.sim.elements else None
         self.probe_writer = ProbeWriter(
             self.out, self.probes.names, PROBE_COLUMNS,
             restart_step=r["step"] if r else None) \
@@ -289,7 +289,8 @@ class Runner:
         if self.sim.points.apic:
             columns["affine"] = p.affine
         self.writer.write_frame(self.sim.time, self.sim.step_count,
-                                with_stress_invariants(columns))
+                                in_precision(with_stress_invariants(columns),
+                                             self.output.precision))
         if self.element_writer:
             self.element_writer.write_frame(self.sim.time, self.sim.step_count)
         self.frame_index += 1
