@@ -85,10 +85,15 @@ TIME = {
 PROBE = {
     "name": Field(Custom(_body_name, "string of letters, digits, _, -"),
                   doc="the probe's name: its history goes to probe_NAME.csv"),
-    "body": Field(text(), doc="the (particle) body it follows"),
+    "body": Field(text(), doc="the body it samples: its particles, or an FEM body's "
+                              "nodes (position and velocity; the stress columns read NaN)"),
     "point": Field(vector(), unit="mm",
-                   doc="the body's particle nearest this point at the start is followed "
-                       "(ties: the lower id); the same on any number of ranks"),
+                   doc="the body's particle (or FE node) nearest this point at the start is "
+                       "followed (ties: the lower id); the same on any number of ranks"),
+    "fixed": Field(boolean(), False,
+                   doc="true: a gauge fixed in space: at every history row the body's "
+                       "particle (or FE node) nearest `point` then is sampled, instead of "
+                       "following one"),
 }
 OUTPUT = {
     "frames": Field(integer(at_least(1)), 10,
@@ -121,8 +126,8 @@ OUTPUT = {
                    "a frame at every multiple of this time, besides `frames` (given "
                    "without `frames`, only these and the final frame are written)"),
     "probes": Field(list_of(mapping(PROBE), 0, "probe"), [],
-                    doc="particles followed through the run: at every history row "
-                        "probe_NAME.csv gets its position, velocity, stress, eps_p, "
+                    doc="points followed through the run, or gauges fixed in space: at "
+                        "every history row probe_NAME.csv gets its position, velocity, stress, eps_p, "
                         "pressure and von Mises stress"),
     "times": Field(number_list(0), [], "ms",
                    "extra frame times, each in (0, time.end], written besides the equally "
@@ -459,7 +464,7 @@ def _check_output_times(case, problems):
 
 
 def _check_probes(case, body_names, problems):
-    """Probe names unique; each follows a particle body that exists."""
+    """Probe names unique; each samples a body that exists."""
     if not valid(case["output"], "probes"):
         return
     probes = case["output"]["probes"]
@@ -473,9 +478,6 @@ def _check_probes(case, body_names, problems):
         body = bodies.get(probe["body"])
         if body is None:
             problems.add(path, unknown_name("body", probe["body"], body_names))
-        elif valid(body, "method") and body["method"] == "fem":
-            problems.add(path, f"body {probe['body']!r} is an FEM body; probes follow "
-                         f"particles (its elements are in elements.h5)")
 
 
 def _unique_names(items, section, problems):
