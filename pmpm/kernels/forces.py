@@ -55,12 +55,17 @@ def keep_rows(nodes, count, array, first, out):
 
 
 @njit(cache=True, inline="always")
-def _face_of_component(code, d, mirror_face):
-    """The box face (2 axis + upper) that takes component d of a node's impulse: the
-    node's face on axis d; else a fixed face or a wall it lies on (their tangential
-    pull); else the plane of symmetry it mirrors across; else its first face."""
-    if (code >> (2 * d)) & 3:
-        return 2 * d + ((code >> (UPPER + d)) & 1)
+def _face_of_component(code, g, block, d, mirror_face):
+    """The box face (2 axis + upper) that takes component d of a node's impulse (``g``:
+    the node's global index): the face of axis d the node lies on or beyond; else a
+    fixed face or a wall it lies on (their tangential pull); else the plane of symmetry
+    it mirrors across; else its first face. So the tangential parts of a mirrored group
+    of nodes (a node beyond a plane of symmetry and its image), which cancel, stay
+    together on one face, even at a corner of two planes."""
+    if g[d] <= 0 and block.boundary[2 * d] != 0:
+        return 2 * d
+    if g[d] >= block.n_cells[d] and block.boundary[2 * d + 1] != 0:
+        return 2 * d + 1
     first = -1
     for e in range(3):
         kind = (code >> (2 * e)) & 3
@@ -76,20 +81,23 @@ def _face_of_component(code, d, mirror_face):
 
 
 @njit(cache=True)
-def face_impulses(nodes, face_of, count, raw, gvel, gnew, codes, share, dt, m_tiny, out):
+def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_tiny, out):
     """Add each kept node's impulse from the faces (module docstring) to ``out`` (6, 3),
     component by component to the face that takes it (:func:`_face_of_component`).
     Nodes of rigid bodies (rigid mass > 0) and nodes without mass are left out: a rigid
-    body's push is not a face's."""
+    body's push is not a face's. ``block``: the level's NodeBlock."""
+    g = np.empty(3, np.int64)
     for k in range(count):
         m = raw[k, 0]
         if raw[k, 4] > 0.0 or m <= m_tiny:
             continue
         n = nodes[k]
         for d in range(3):
+            g[d] = block.lo[d] + (n // block.strides[d]) % block.shape[d]
+        for d in range(3):
             impulse = (m * gnew[n, 3 + d] - raw[k, 5 + d]) * dt
             impulse += share * (m * gvel[n, d] - raw[k, 1 + d])
-            face = _face_of_component(codes[n], d, face_of[k])
+            face = _face_of_component(block.faces[n], g, block, d, face_of[k])
             if face >= 0:
                 out[face, d] += impulse
 

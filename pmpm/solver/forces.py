@@ -15,8 +15,10 @@ Attribution rules worth knowing:
 * grid contact: a body's correction at a contact node counts against the heaviest other
   body there (the one it was made against); a rigid body's force is the opposite of the
   force on its partner;
-* faces: each component of a node's impulse goes to the node's face on that axis, else
-  to a fixed face or wall it lies on, else to the plane of symmetry it mirrors across;
+* faces: each component of a node's impulse goes to the face of that axis the node lies
+  on or beyond, else to a fixed face or wall it lies on, else to the plane of symmetry
+  it mirrors across (so the tangential parts of a mirrored group, which cancel, stay on
+  one face);
 * a face node that is also a contact node is counted with the shared field's motion, and
   with refined windows the tied nodes that lie on a face are not counted: both are
   approximations near such nodes only.
@@ -97,7 +99,7 @@ class ForceLog(Coupling):
         for s in grids:
             nodes, face_of, count, raw = self.zones[s.index]
             if count:
-                kf.face_impulses(nodes, face_of, count, raw, s.gvel, s.gnew, s.nodes.faces,
+                kf.face_impulses(nodes, face_of, count, raw, s.gvel, s.gnew, s.nodes,
                                  self.share, dt, self.m_tiny, self.face)
             if self.grid_contact is not None:
                 f = self.grid_contact.fields[s.index]
