@@ -37,7 +37,9 @@ def _grid(h5, group, time, n, m, own_mesh=False, real="<f8"):
              '    <Geometry GeometryType="XYZ">\n',
              _data_item(f"{ref}/node_x", (n, 3), real, pad), "    </Geometry>\n",
              _attribute("velocity", "Vector", "Node",
-                        _data_item(f"{ref}/node_v", (n, 3), real, pad))]
+                        _data_item(f"{ref}/node_v", (n, 3), real, pad)),
+             _attribute("displacement", "Vector", "Node",
+                        _data_item(f"{ref}/node_displacement", (n, 3), real, pad))]
     parts += [_attribute(label, "Scalar", "Cell",
                          _column_slab(f"{ref}/stress", m, 6, k, real, pad))
               for k, label in enumerate(STRESS_SCALARS)]

@@ -139,6 +139,7 @@ class FemBodies:
         self.element_id, self.node_id = part.elements, part.nodes
         self.partners, self.owned = part.partners, part.owned
         self.x = np.ascontiguousarray(whole.x[part.nodes])
+        self.x0 = self.x.copy()                     # where each node was at the start
         self.hexes = np.ascontiguousarray(part.hexes, np.int64)
         self.node_body = whole.node_body[part.nodes]
         self.body = whole.body[part.elements]
@@ -241,7 +242,8 @@ class FemBodies:
         return columns
 
     def node_columns(self):
-        return {"node_id": self.node_id, "x": self.x, "v": self.v, "mass": self.mass,
+        return {"node_id": self.node_id, "x": self.x, "x0": self.x0, "v": self.v,
+                "mass": self.mass,
                 "fixed": self.fixed, "load": self.load, "load_scale": self.load_scale,
                 "node_body": self.node_body}
 
@@ -249,6 +251,8 @@ class FemBodies:
         """Take the elements and nodes this rank now holds (any order; kept sorted by
         global id), and find again the nodes it shares."""
         order = np.argsort(nodes["node_id"], kind="stable")
+        if "x0" not in nodes:                       # checkpoints before displacements
+            nodes = dict(nodes, x0=nodes["x"])
         for name, column in nodes.items():
             setattr(self, name, np.ascontiguousarray(column[order]))
         order = np.argsort(elements["element_id"], kind="stable")
@@ -437,7 +441,8 @@ class FemBodies:
         node ids; the writer puts them in id order."""
         s = self.state
         nodes = {"node_id": self.node_id[self.owned], "node_x": self.x[self.owned],
-                 "node_v": self.v[self.owned]}
+                 "node_v": self.v[self.owned],
+                 "node_displacement": self.x[self.owned] - self.x0[self.owned]}
         elements = {"element_id": self.element_id, "hexes": self.node_id[self.hexes],
                     "body": self.body, "stress": s.stress, "eps_p": s.eps_p,
                     "density": s.rho, "e_int": s.e_int, "centroid": self.centroids(),

@@ -283,7 +283,8 @@ class Runner:
 
     def write_frame(self):
         p = self.sim.particles
-        columns = {"x": p.x, "v": p.v, "stress": p.stress, "eps_p": p.eps_p,
+        columns = {"x": p.x, "displacement": p.x - p.x0, "v": p.v, "stress": p.stress,
+                   "eps_p": p.eps_p,
                    "density": p.rho, "mass": p.mass, "body": p.body, "id": p.id,
                    "temp": p.temp, "e_int": p.e_int}
         if self.sim.points.apic:
