@@ -46,6 +46,7 @@ def _combine_shared_planes(world, planes, block, combine):
         incoming = np.empty_like(outgoing)
         requests.append(world.raw.Irecv(incoming, source=neighbour, tag=71))
         requests.append(world.raw.Isend(outgoing, dest=neighbour, tag=71))
+        world.traffic.note("neighbour", outgoing.nbytes)
         received.append((span, incoming, outgoing))
     MPI.Request.Waitall(requests)
     for span, incoming, _ in received:
@@ -83,7 +84,10 @@ def migrate_store(world, destination, store, check=True):
     send_counts = np.bincount(destination[leaving], minlength=world.size).astype(np.int64)
     recv_counts = np.empty_like(send_counts)
     world.raw.Alltoall(send_counts, recv_counts)
-    received = _alltoallv_rows(world, store.rows(leaving), send_counts, recv_counts)
+    rows = store.rows(leaving)
+    world.traffic.note("alltoall", rows.nbytes + send_counts.nbytes,
+                       np.count_nonzero(send_counts))
+    received = _alltoallv_rows(world, rows, send_counts, recv_counts)
     lower = int(recv_counts[:world.rank].sum())
     store.take(destination == world.rank, before=received[:lower], after=received[lower:])
 

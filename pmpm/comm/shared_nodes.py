@@ -4,6 +4,8 @@ message, and every sharer adds the partials in rank order, so that the copies of
 shared node stay bitwise equal and 1 rank agrees with N to round-off."""
 import numpy as np
 
+from .world import payload_bytes
+
 TAG = 79
 
 
@@ -20,6 +22,7 @@ def sum_shared_rows(world, values, partners):
     for (rank, _), out, into in zip(partners, outgoing, incoming):
         requests.append(world.raw.Irecv(into, source=rank, tag=TAG))
         requests.append(world.raw.Isend(out, dest=rank, tag=TAG))
+        world.traffic.note("neighbour", out.nbytes)
     for request in requests:
         request.Wait()
     total = np.zeros_like(values)
@@ -37,7 +40,9 @@ def swap_with(world, ranks, payload, tag=80):
     """Send ``payload`` (a picklable object) to every rank of ``ranks`` and return what
     each of them sent here, {rank: object}. Every rank of ``ranks`` must call it with
     this rank among its own ``ranks`` (a symmetric relation), or it waits for ever."""
+    size = payload_bytes(payload) if ranks else 0
     requests = [world.raw.isend(payload, dest=r, tag=tag) for r in ranks]
+    world.traffic.note("neighbour", size * len(ranks), len(ranks))
     received = {r: world.raw.recv(source=r, tag=tag) for r in ranks}
     for request in requests:
         request.wait()
@@ -48,4 +53,7 @@ def exchange_objects(world, packages):
     """Send ``packages[r]`` to rank r (any picklable object, to self too) and return what
     every rank sent here, by rank: the elements that change rank, with their nodes, at
     a balance check (rare, so pickled)."""
+    world.traffic.note("alltoall", sum(payload_bytes(p) for r, p in enumerate(packages)
+                                       if r != world.rank),
+                       sum(1 for r, p in enumerate(packages) if r != world.rank and p))
     return world.raw.alltoall(packages)

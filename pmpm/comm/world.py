@@ -1,7 +1,50 @@
-"""A thin wrapper over an mpi4py communicator with the few collectives pmpm uses."""
+"""A thin wrapper over an mpi4py communicator with the few collectives pmpm uses, and
+the count of what this rank sends (:class:`Traffic`), for the scaling model
+(scripts/scaling.py) and summary.json."""
+import pickle
 import sys
 
 import numpy as np
+
+
+class Traffic:
+    """What this rank has sent since :meth:`reset`: point-to-point messages to
+    neighbours (shared slab planes, shared FE nodes) and their bytes, collectives
+    (reductions, gathers, broadcasts) and their bytes, and all-to-all exchanges
+    (particle migration) with the messages and bytes that went to other ranks."""
+
+    KINDS = ("neighbour", "collective", "alltoall")
+
+    def __init__(self):
+        self.reset()
+
+    def reset(self):
+        self.messages = dict.fromkeys(self.KINDS, 0)
+        self.bytes = dict.fromkeys(self.KINDS, 0)
+
+    def note(self, kind, nbytes, messages=1):
+        self.messages[kind] += int(messages)
+        self.bytes[kind] += int(nbytes)
+
+
+def payload_bytes(obj):
+    """About the bytes of ``obj`` on the wire, without pickling the arrays again: their
+    buffers, summed through tuples, lists and dicts; 8 a number; the pickle of anything
+    else (small: strings, tuples of numbers)."""
+    if isinstance(obj, np.ndarray):
+        return obj.nbytes
+    if obj is None:
+        return 0
+    if isinstance(obj, (int, float, bool, np.generic)):
+        return 8
+    if isinstance(obj, (list, tuple)):
+        return sum(payload_bytes(item) for item in obj)
+    if isinstance(obj, dict):
+        return sum(payload_bytes(k) + payload_bytes(v) for k, v in obj.items())
+    try:
+        return len(pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL))
+    except Exception:       # an object that does not pickle is not sent either
+        return 0
 
 
 class World:
@@ -20,6 +63,7 @@ class World:
         self.raw = raw
         self.rank = raw.Get_rank()
         self.size = raw.Get_size()
+        self.traffic = Traffic()
 
     @property
     def is_root(self):
@@ -38,24 +82,30 @@ class World:
         from mpi4py import MPI
         op = getattr(MPI, op_name)
         if np.isscalar(value):
+            self.traffic.note("collective", 8)
             return self.raw.allreduce(value, op=op)
         send = np.ascontiguousarray(value)
+        self.traffic.note("collective", send.nbytes)
         recv = np.empty_like(send)
         self.raw.Allreduce(send, recv, op=op)
         return recv
 
     def exscan_sum(self, value):
         """Sum of ``value`` over lower ranks (0 on rank 0)."""
+        self.traffic.note("collective", 8)
         total = self.raw.exscan(value)
         return 0 if total is None else total
 
     def gather(self, obj):
+        self.traffic.note("collective", payload_bytes(obj))
         return self.raw.gather(obj, root=0)
 
     def allgather(self, obj):
+        self.traffic.note("collective", payload_bytes(obj))
         return self.raw.allgather(obj)
 
     def bcast(self, obj):
+        self.traffic.note("collective", payload_bytes(obj) if self.is_root else 0)
         return self.raw.bcast(obj, root=0)
 
     def barrier(self):
@@ -63,10 +113,12 @@ class World:
 
     def any(self, flag):
         """True on every rank when ``flag`` is true on any rank."""
+        self.traffic.note("collective", 1)
         return bool(self.raw.allreduce(bool(flag), op=_mpi().LOR))
 
     def first_message(self, message):
         """The message of the lowest rank that has one (None if no rank has), on all ranks."""
+        self.traffic.note("collective", payload_bytes(message))
         messages = self.raw.allgather(message)
         return next((m for m in messages if m), None)
 

@@ -123,6 +123,8 @@ class Runner:
             self.write_frame()
             self.write_history_row(0.0)
         self.started = clock.perf_counter()
+        self.world.traffic.reset()          # what the steps send, not the set-up
+        self.loop_first_step = self.sim.step_count
         self.progress.start(self.sim.time, self.particle_steps)
         dt = 0.0
         while self.sim.time < self.end * (1 - 1e-12):
@@ -392,7 +394,24 @@ class Runner:
             "bodies": self.body_summary(),
             **self.element_summary(),
             **self.sim.contact_summary(),
+            "communication": self.communication_summary(),
         }
+
+    def communication_summary(self):
+        """What a rank sent per step of this process's loop (the frames, history rows and
+        checkpoints written meanwhile included), per kind (neighbour messages, collectives,
+        all-to-all migration): the mean over the ranks and the largest (collective)."""
+        traffic = self.world.traffic
+        steps = max(self.sim.step_count - getattr(self, "loop_first_step", 0), 1)
+        mine = [traffic.messages[k] / steps for k in traffic.KINDS] + \
+               [traffic.bytes[k] / steps for k in traffic.KINDS]
+        every = np.array(self.world.allgather(mine))
+        n = len(traffic.KINDS)
+        return {kind: {"messages_per_step": {"mean": float(every[:, k].mean()),
+                                             "largest": float(every[:, k].max())},
+                       "bytes_per_step": {"mean": float(every[:, n + k].mean()),
+                                          "largest": float(every[:, n + k].max())}}
+                for k, kind in enumerate(traffic.KINDS)}
 
     def element_summary(self):
         """With FEM bodies: their element count, element-steps per second of stepping
