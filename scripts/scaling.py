@@ -8,13 +8,15 @@ model built from what was measured.
 
 The model, per step of the target case on P ranks:
 
-    T(P) = t_p N_p imbalance(P) / P                        compute
+    T(P) = t_0 + t_p N_p imbalance(P) / P                  compute
          + m_nb (alpha + b_nb / beta)                       neighbour messages
          + m_coll alpha ceil(log2 P)                        collectives (latency-bound)
          + m_a2a alpha + b_a2a / beta                       migration (all-to-all)
 
-* ``t_p``: seconds per particle-step on one rank, measured here (the grid's work per
-  particle included).
+* ``t_p``, ``t_0``: seconds per particle-step and per step on one rank, fitted to two
+  1-rank runs here (the case as measured and with fewer particles): the grid's work per
+  particle is in ``t_p``; ``t_0`` is what every step costs whatever its size (Python's
+  orchestration of the kernels, the reductions), which no rank count divides.
 * ``m_nb``, ``b_nb``: the neighbour messages and bytes per step of the busiest rank
   (summary.json ``communication``, an interior rank at 4 or more ranks), its bytes
   scaled by the target's plane area in nodes, ``(h / h_target)^2``.
@@ -48,13 +50,17 @@ from pmpm.comm.slabs import balanced_bounds  # noqa: E402
 from pmpm.kernels.shape import HALO, SHAPE_CODES  # noqa: E402
 
 CASES = {
-    # name: (case file, sets of the measured runs, measured cell, target cell, label)
+    # name: (case file, sets of the measured runs, measured cell, target cell, label,
+    # the sets of a second 1-rank run with fewer particles, which splits the step's cost
+    # into a part per particle and a fixed part per step)
     "taylor": ("runs/taylor_bar.yaml",
                ["params.cell=0.76", "time.end=0.004", "output.checkpoints=false",
-                "output.frames=1"], 0.76, 0.19, "Taylor bar, 0.19 mm (1.34 M particles)"),
+                "output.frames=1"], 0.76, 0.19, "Taylor bar, 0.19 mm (1.34 M particles)",
+               ["params.cell=1.14"]),
     "perforation": ("runs/ogive_plate.yaml",
                     ["time.end=0.004", "output.checkpoints=false", "output.frames=1"],
-                    2.0, 1.0, "ogive perforation, 1 mm cells (8 x the paper's count)"),
+                    2.0, 1.0, "ogive perforation, 1 mm cells (8 x the paper's count)",
+                    ["params.ppc_plate=1", "params.ppc_rod=2"]),
 }
 PROJECTED = (16, 64, 256)
 
@@ -149,9 +155,9 @@ def plane_nodes(positions, axis, cell, halo):
     return float(np.prod([span[a] for a in range(3) if a != axis]))
 
 
-def model(t_p, n_p, ranks, imb, comm, alpha, beta):
+def model(t_p, n_p, ranks, imb, comm, alpha, beta, t_0=0.0):
     """Seconds per step on ``ranks`` ranks (see the module docstring)."""
-    compute = t_p * n_p * imb / ranks
+    compute = t_0 + t_p * n_p * imb / ranks
     if ranks == 1:
         return compute
     nb = comm["m_nb"] * (alpha + comm["b_nb"] / comm["m_nb"] / beta) if comm["m_nb"] else 0.0
@@ -162,7 +168,7 @@ def model(t_p, n_p, ranks, imb, comm, alpha, beta):
 
 def main(argv=None):
     args = parse_args(argv)
-    case, sets, h_meas, h_target, label = CASES[args.case]
+    case, sets, h_meas, h_target, label, fewer = CASES[args.case]
     if args.shape:
         sets = sets + [f"grid.shape_functions={args.shape}"]
         label += f", {args.shape}"
@@ -174,8 +180,10 @@ def main(argv=None):
     agree = {r: largest_difference(reference, final_frame(out))
              for r, (out, _) in runs.items()}
     one = runs[1][1]
-    t_p = 1.0 / one["particle_steps_per_s"]
     n_meas = one["n_particles"]["initial"]
+    coarse = run_case(case, os.path.join(args.out, f"{args.case}_{args.shape or 'file'}_coarse"),
+                      1, sets + fewer)
+    t_0, t_p = fit_step_cost(one, coarse)
     scale3 = (h_meas / h_target) ** 3
     scale2 = (h_meas / h_target) ** 2
     widest = max(r for r in runs if r > 1)
@@ -196,7 +204,7 @@ def main(argv=None):
     n_target = n_meas * scale3
     alpha, beta = args.latency_us * 1e-6, args.bandwidth_gbs * 1e9
     rows, projection = [], {}
-    t1 = t_p * n_target
+    t1 = t_0 + t_p * n_target
     for ranks in list(PROJECTED):
         axis, imb = best_axis(positions, h_target, ranks, min_width)
         if imb is not None:
@@ -207,11 +215,11 @@ def main(argv=None):
             rows.append(f"| {ranks} | - | - | - | - | slabs of {min_width} cells cannot "
                         f"be {ranks} |")
             continue
-        tp = model(t_p, n_target, ranks, imb, comm, alpha, beta)
+        tp = model(t_p, n_target, ranks, imb, comm, alpha, beta, t_0)
         eff = t1 / (ranks * tp)
         projection[ranks] = {"axis": "xyz"[axis], "imbalance": imb, "step_s": tp,
                              "efficiency": eff, "bytes_per_message": comm["b_nb"] / comm["m_nb"]}
-        compute = t_p * n_target * imb / ranks
+        compute = t_0 + t_p * n_target * imb / ranks
         rows.append(f"| {ranks} | {'xyz'[axis]} | {imb:.3f} | {1e3 * compute:.2f} | "
                     f"{1e3 * (tp - compute):.3f} | {100 * eff:.1f} % |")
     extents = np.ceil(np.ptp(positions[0], axis=0) / h_target).astype(int)
@@ -227,8 +235,8 @@ def main(argv=None):
               "b_a2a": busiest(s2, "alltoall", "bytes_per_step")}
         imb2 = imbalance(positions, measured_axis, h_meas, 2, min_width) or 1.0
         a_l, b_l = args.local_latency_us * 1e-6, args.local_bandwidth_gbs * 1e9
-        modelled = model(t_p, n_meas, 1, 1.0, c2, a_l, b_l) / (
-            2 * model(t_p, n_meas, 2, imb2, c2, a_l, b_l))
+        modelled = model(t_p, n_meas, 1, 1.0, c2, a_l, b_l, t_0) / (
+            2 * model(t_p, n_meas, 2, imb2, c2, a_l, b_l, t_0))
         measured = s2["particle_steps_per_s"] / (2 * one["particle_steps_per_s"])
         check = {"modelled": modelled, "measured": measured}
     lines = [f"# Scaling: {label}", "",
@@ -243,8 +251,8 @@ def main(argv=None):
                      f"{busiest(s, 'neighbour', 'messages_per_step'):.1f} / "
                      f"{busiest(s, 'neighbour', 'bytes_per_step'):,.0f} | "
                      f"{busiest(s, 'collective', 'messages_per_step'):.1f} |")
-    lines += ["", f"Model inputs: t_p = {1e9 * t_p:.0f} ns per particle-step (1 rank, "
-              f"this machine); per step {comm['m_nb']:.0f} neighbour messages of "
+    lines += ["", f"Model inputs: t_p = {1e9 * t_p:.0f} ns per particle-step and t_0 = "
+              f"{1e3 * t_0:.2f} ms per step (1 rank, this machine); per step {comm['m_nb']:.0f} neighbour messages of "
               f"{per_node:.0f} bytes per node of a shared plane, "
               f"{comm['m_coll']:.1f} collectives; latency {args.latency_us} us, "
               f"bandwidth {args.bandwidth_gbs} GB/s; slabs at least {min_width} cells.", "",
@@ -263,9 +271,22 @@ def main(argv=None):
     write_lines(os.path.join(args.out, f"{name}.md"), lines, echo=True)
     with open(os.path.join(args.out, f"{name}.json"), "w",
               encoding="utf-8") as f:
-        json.dump({"agree": agree, "comm": comm, "t_p": t_p, "projection": projection,
+        json.dump({"agree": agree, "comm": comm, "t_p": t_p, "t_0": t_0, "projection": projection,
                    "largest_ranks": largest, "check": check}, f, indent=2)
     return 0 if ok else 1
+
+
+def step_seconds(summary):
+    """(particles, seconds per step) of a run, over its steps after the first."""
+    n = summary["n_particles"]["initial"]
+    return n, n / summary["particle_steps_per_s"]
+
+
+def fit_step_cost(fine, coarse):
+    """(t_0, t_p): the fixed and per-particle cost of a step, from two runs' steps."""
+    (n1, s1), (n2, s2) = step_seconds(fine), step_seconds(coarse)
+    t_p = (s1 - s2) / (n1 - n2)
+    return max(s1 - t_p * n1, 0.0), t_p
 
 
 def shape_functions(out):
