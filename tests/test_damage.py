@@ -13,7 +13,6 @@ Units: mm, ms, g (MPa, 1/ms).
 import json
 import math
 import os
-import shutil
 
 import h5py
 import numpy as np
