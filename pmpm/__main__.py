@@ -105,10 +105,47 @@ def parse_args_once(comm, argv):
             return None, stop.code
 
 
+class TolerantStdout:
+    """stdout that a closed reader cannot stop: after a broken pipe (``pmpm case.yaml |
+    head``) further lines go nowhere and the run goes on to its end, instead of dying
+    with a traceback on its next progress line."""
+
+    def __init__(self, stream):
+        self.stream, self.broken = stream, False
+
+    def write(self, text):
+        if not self.broken:
+            try:
+                return self.stream.write(text)
+            except BrokenPipeError:
+                self.drop()
+        return len(text)
+
+    def flush(self):
+        if not self.broken:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self.drop()
+
+    def drop(self):
+        """Point the descriptor at /dev/null, so that the interpreter's last flush at
+        exit does not complain either."""
+        self.broken = True
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, self.stream.fileno())
+        os.close(devnull)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
 def main(argv=None):
     from .comm import world
     from .app import check_case, run_case, InputError
     from .solver.interrupt import INTERRUPTED, RunInterrupted, catch_signals
+    if not isinstance(sys.stdout, TolerantStdout):
+        sys.stdout = TolerantStdout(sys.stdout)
     catch_signals()
     comm = world()
     args, status = parse_args_once(comm, sys.argv[1:] if argv is None else argv)

@@ -162,7 +162,9 @@ def test_defaults_filled(tmp_path):
     assert case["time"] == {"end": 0.08, "cfl": 0.5, "dt_max": None, "dt": None, "pic": 0.0,
                             "transfer": "flip", "scheme": "usf", "max_steps": 1e8}
     assert case["output"] == {"frames": 10, "history_every": 10, "checkpoint_every": 0,
-                              "checkpoints": True, "progress": True, "every": None,
+                              "checkpoints": True, "progress": True, "precision": "float64",
+                              "forces": True,
+                              "every": None,
                               "probes": [], "times": [], "energy_warning": 0.05, "energy_fault": 10.0}
     assert case["decomposition"] == {"axis": "auto", "rebalance_threshold": 0.2,
                                      "check_every": 50, "memory_limit_gb": None}
@@ -232,8 +234,8 @@ def test_docs_example_loads(tmp_path):
                                         "mean 'radius'?)"),
     ({"bodies__0__geometry__radius": None}, "bodies[0].geometry.radius: missing (required)"),
     ({"bodies__0__geometry__type": "cone"},
-     "bodies[0].geometry.type: unknown geometry type 'cone'; known: box, cylinder, mesh, "
-     "ogive, prism, sphere"),
+     "bodies[0].geometry.type: unknown geometry type 'cone'; known: box, cylinder, "
+     "difference, mesh, ogive, points, prism, sphere, surface, union"),
     ({"bodies__0__velocity": [0, 0]}, "bodies[0].velocity: expected a list of 3 numbers"),
     ({"bodies__0__particles_per_cell": 0},
      "bodies[0].particles_per_cell: must be >= 1, got 0"),

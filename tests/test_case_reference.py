@@ -50,7 +50,8 @@ def test_every_material_model_and_geometry_type_has_its_table():
     variants = {(section.path, section.variant) for section in SECTIONS}
     for model in catalog.MODELS:
         assert ("materials.NAME", f"model: {model}") in variants
-    for kind in ("box", "cylinder", "sphere", "ogive", "mesh"):
+    for kind in ("box", "cylinder", "sphere", "ogive", "mesh", "prism", "surface", "points",
+                 "union", "difference"):
         assert ("bodies[i].geometry", f"type: {kind}") in variants
 
 

@@ -245,3 +245,19 @@ def test_version_names_pmpm_and_its_libraries():
     assert done.returncode == 0
     assert re.match(r"pmpm \d+\.\d+\.\d+ \(.*numpy [\d.]+; numba [\d.]+; mpi4py [\d.]+; "
                     r"h5py [\d.]+\)$", done.stdout.strip()), done.stdout
+
+
+def test_a_run_piped_into_head_finishes_without_a_traceback(tmp_path):
+    """`pmpm case.yaml | head -1`: the reader goes away after the first line; the run
+    goes on to its end and writes its results, with no BrokenPipeError traceback."""
+    import subprocess
+    import sys
+    from clihelp import ENV, ROOT
+    script = (f"{sys.executable} -m pmpm {BAR} --out {tmp_path / 'out'} "
+              f"--set output.history_every=1 | head -1; exit ${{PIPESTATUS[0]}}")
+    done = subprocess.run(["bash", "-c", script], capture_output=True, text=True, cwd=ROOT,
+                          env={**os.environ, **ENV}, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr and "BrokenPipe" not in done.stderr
+    assert done.stdout.startswith("pmpm: 624 particles")
+    assert os.path.exists(tmp_path / "out" / "summary.json")

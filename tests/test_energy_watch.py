@@ -86,3 +86,16 @@ def test_the_default_energy_fault_lets_the_hats_known_gain_end(tmp_path):
     parting reach +101 %, tests/test_contact_release.py)."""
     done = pmpm([BAR, "--out", tmp_path, *COARSE_BAR, "--quiet"], timeout=300)
     assert done.returncode == 0 and balance(tmp_path)["fault"] == 10.0
+
+
+def test_a_bar_that_loses_energy_to_pic_damping_is_warned_about_once(tmp_path):
+    """A PIC transfer takes the vibrating bar's kinetic energy: the loss is flagged like
+    a gain, once, and summary.json records it."""
+    done = pmpm([BAR, "--out", tmp_path, *COARSE_BAR, "--set", "time.scheme=musl",
+                 "--set", "time.pic=1"], timeout=300)
+    assert done.returncode == 0
+    warnings = [line for line in pmpm_lines(done.stderr) if "warning" in line]
+    assert len(warnings) == 1 and "has lost" in warnings[0] and "time.pic" in warnings[0]
+    watch = balance(tmp_path)
+    assert watch["warned_loss"] and watch["largest_loss"] > 0.05
+    assert not watch["warned"]

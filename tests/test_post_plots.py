@@ -11,7 +11,8 @@ from clihelp import BAR, ROOT, run_ok
 @pytest.fixture(scope="module")
 def bar_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("bar") / "out"
-    run_ok([BAR, "--out", out, "--quiet"])
+    run_ok([BAR, "--out", out, "--quiet", "--set",
+            "output.probes=[{name: tip, body: bar, point: [0, 0, 0]}]"])
     return out
 
 
@@ -29,14 +30,16 @@ def test_the_plots_of_a_run_are_written_and_named(bar_run, tmp_path):
     done = post(bar_run, "--out", tmp_path, "--field", "eps_p", "--frame", "0", "--normal", "x")
     assert done.returncode == 0, done.stderr
     written = done.stdout.split()
-    assert [os.path.basename(p) for p in written] == ["plot_energies.png", "plot_bodies.png",
-                                                      "plot_frame_0_eps_p.png"]
+    assert [os.path.basename(p) for p in written] == [
+        "plot_energies.png", "plot_bodies.png", "plot_forces.png", "plot_probes.png",
+        "plot_frame_0_eps_p.png"]
     assert all(is_png(p) for p in written)
     default = post(bar_run)
     assert default.returncode == 0, default.stderr
     assert default.stdout.split()[-1] == str(bar_run / "plot_frame_last_auto.png")
     # the plots sit beside the run's files, and --force replaces them with the run's
-    run_ok([BAR, "--out", bar_run, "--quiet", "--force"])
+    run_ok([BAR, "--out", bar_run, "--quiet", "--force", "--set",
+            "output.probes=[{name: tip, body: bar, point: [0, 0, 0]}]"])
     assert not list(bar_run.glob("plot_*.png"))
 
 

@@ -67,3 +67,36 @@ def test_a_restart_continues_the_probe_files(tmp_path, runs):
     run_ok([BAR, "--out", out, "--quiet", "--restart", "--set", PROBES])
     for name in ("tip", "top"):
         assert np.array_equal(read_probe(out, name)[1], read_probe(runs[1], name)[1])
+
+
+def test_a_fixed_probe_samples_the_particle_nearest_its_point_now(tmp_path):
+    """``fixed: true``: a gauge at a place; at the last row it reads the particle nearest
+    the point in the final frame, a different one from the followed probe's."""
+    fixed = "output.probes=[{name: gauge, body: bar, point: [0, 0, 0.3], fixed: true}, " \
+            "{name: tip, body: bar, point: [0, 0, 0.3]}]"
+    run_ok([BAR, "--out", tmp_path, "--quiet", "--set", fixed])
+    last = read_frame(tmp_path, -1)
+    k = int(np.flatnonzero(last["id"] == nearest_id(last, (0, 0, 0.3)))[0])
+    gauge, tip = read_probe(tmp_path, "gauge")[1], read_probe(tmp_path, "tip")[1]
+    assert np.array_equal(gauge[-1, 2:5], last["x"][k])
+    assert np.array_equal(gauge[-1, 8:14], last["stress"][k])
+    assert np.array_equal(gauge[0], tip[0])          # the same particle at the start
+    assert gauge[-1, 4] <= tip[-1, 4] + 1e-12    # never farther than the followed one
+
+
+def test_a_probe_on_an_fem_body_follows_a_node(tmp_path):
+    """The struck FEM bar's far end: the node there, its velocity once the pulse has
+    arrived, NaN stresses; the same on 2 ranks as on 1."""
+    case = os.path.join(os.path.dirname(BAR), "striker_on_fem_bar.yaml")
+    probe = "output.probes=[{name: end, body: bar, point: [52, 0, 0]}]"
+    found = {}
+    for ranks in (1, 2):
+        out = tmp_path / f"r{ranks}"
+        run_ok([case, "--out", out, "--quiet", "--set", probe, "--set", "time.end=0.015",
+                "--set", "output.history_every=5"], ranks)
+        found[ranks] = read_probe(out, "end")[1]
+    rows = found[1]
+    assert np.array_equal(rows[0, 2:5], [52.0, 0.0, 0.0])
+    assert np.all(np.isnan(rows[:, 8:]))
+    assert rows[0, 5] == 0.0 and rows[:, 5].max() > 8.0   # the free end flies at about v0
+    assert np.allclose(found[2], rows, equal_nan=True, rtol=1e-9, atol=1e-12)

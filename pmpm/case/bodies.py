@@ -7,14 +7,13 @@ import re
 
 import numpy as np
 
-from .errors import join
+from .errors import describe, join
 from .fem import FEM, METHOD_DOC, METHODS, fem_mesh_or_none
 from .fields import (INVALID, OMIT, REQUIRED, Checked, Custom, Field, FieldNumber,
                      FieldVector, Tagged, at_least, choice, defaults_of, greater,
                      has_invalid, integer, list_of,
                      valid, mapping, number, text, vector)
-from .fill import fill_geometry
-from .mesh import MeshReadError
+from .fill import FILE_ERRORS, file_problem, fill_geometry
 from .rigid import RIGID
 from .shapes import (AXES, make_shape, nose_length, quad_turns, reference_point,
                      rotation_matrix)
@@ -59,6 +58,44 @@ GEOMETRIES = {
         "scale": Field(number(greater(0)), 1.0, "1",
                        "the mesh's points x are placed at scale * x + translate"),
         "translate": point("where the mesh's origin lands", [0.0, 0.0, 0.0])},
+    "surface": {
+        "file": Field(text(), doc="a closed (watertight) triangulated surface meshio reads "
+                                  "(.stl, .obj, .ply, .off, ...; quads and polygons are cut "
+                                  "into triangles), relative to the case file"),
+        "scale": Field(number(greater(0)), 1.0, "1",
+                       "the surface's points x are placed at scale * x + translate"),
+        "translate": point("where the surface's origin lands", [0.0, 0.0, 0.0])},
+    "points": {
+        "file": Field(text(), doc="the particles, one per point, relative to the case file: "
+                                  "a CSV table (.csv, .txt: a header of column names, then "
+                                  "one row per particle; lines starting with # skipped), "
+                                  "an HDF5 file (.h5, .hdf5) or a point cloud meshio reads "
+                                  "(.vtu, .vtk, .ply, ...: its points)"),
+        "coordinates": Field(list_of(text(), 1, "name"), OMIT,
+                             doc="where the positions are: CSV, the x, y, z columns' names "
+                                 "(left out: [x, y, z]); HDF5, one (n, 3) dataset or three "
+                                 "(n,) datasets (required); a meshio file: left out (its "
+                                 "points)"),
+        "volume": Field(text(), OMIT, doc="the CSV column, HDF5 dataset or point data array "
+                                          "of each particle's volume (mm^3, before scale: "
+                                          "times scale^3), each > 0; give volume or "
+                                          "spacing"),
+        "spacing": Field(number(greater(0)), OMIT, "mm",
+                         "the particles' spacing (after scale): each has volume "
+                         "spacing^3; give volume or spacing"),
+        "scale": Field(number(greater(0)), 1.0, "1",
+                       "the file's points x are placed at scale * x + translate"),
+        "translate": point("where the file's origin lands", [0.0, 0.0, 0.0])},
+    "union": {"of": Field(Custom(lambda *a: _read_members(*a), "list of geometries (2 at "
+                                 "least)"),
+                          doc="the shapes joined: each a geometry mapping (box, cylinder, "
+                              "sphere, ogive, prism, union or difference) with its own "
+                              "rotate if any")},
+    "difference": {"of": Field(Custom(lambda *a: _read_members(*a), "list of geometries "
+                                      "(2 at least)"),
+                               doc="the first shape, less the others (each a geometry "
+                                   "mapping: box, cylinder, sphere, ogive, prism, union or "
+                                   "difference, with its own rotate if any)")},
     "prism": {
         "section": Field(list_of(vector(2), 3, "point"), unit="mm",
                          doc="the section's points [a, b]: (x, y) for a prism along z, "
@@ -76,8 +113,9 @@ ROTATE = {
     "axis": Field(vector(nonzero=True), doc="the rotation axis"),
     "angle_deg": Field(number(), unit="deg", doc="right-handed angle about the axis"),
     "origin": point("the point the body turns about (left out: the reference point: box "
-                    "min, cylinder base, sphere center, ogive base or else tip, mesh "
-                    "translate)", OMIT),
+                    "min, cylinder base, sphere center, ogive base or else tip, mesh, "
+                    "surface and points translate, union and difference their first "
+                    "shape's)", OMIT),
 }
 
 
@@ -110,6 +148,21 @@ GEOMETRY_DOCS = {
              "the tip is given",
     "mesh": "the lattice points inside the tetrahedra and hexahedra of a volume mesh "
             "(.msh, .vtu, .vtk, .inp, .med, ...); reference point: translate",
+    "surface": "the lattice points inside a closed triangulated surface (an STL or OBJ "
+               "file from CAD): inside by ray parity along x, y and z, the majority "
+               "deciding; an open surface (an edge on one triangle only) or one whose "
+               "facets are not oriented consistently is refused; reference point: "
+               "translate",
+    "points": "the particles of a point file as they are, one per point (no lattice, no "
+              "symmetry clipping: every point must lie inside the grid box), each of volume "
+              "`volume` or spacing^3 and mass density * volume; the solver sizes the "
+              "particles (uGIMP) by particles_per_cell, so set it to about cell / "
+              "spacing; reference point: translate",
+    "union": "the lattice points inside any of the shapes `of` (nesting allowed); "
+             "reference point: the first shape's",
+    "difference": "the lattice points inside the first shape of `of` and inside none of "
+                  "the others, e.g. a plate with a hole; reference point: the first "
+                  "shape's",
     "prism": "a section made of convex quadrilateral blocks extruded along x, y or z "
              "(a wedge's section, a plate's profile); reference point: the first section "
              "point on the base plane",
@@ -195,8 +248,41 @@ def _check_prism(g, path, problems):
             g["blocks"] = INVALID
 
 
+def _check_points_geometry(g, path, problems):
+    """Exactly one of volume and spacing."""
+    if ("volume" in g) == ("spacing" in g):
+        problems.add(path, "give exactly one of 'volume' (a column of the file) and "
+                     "'spacing' (each particle's volume spacing^3)")
+        g["file"] = INVALID
+
+
+#: the shapes a union or difference is made of (the analytic ones)
+CSG_MEMBERS = ("box", "cylinder", "sphere", "ogive", "prism", "union", "difference")
+
+
+def _read_members(value, path, problems):
+    """The list of a union's or difference's shapes, each a geometry mapping of an
+    analytic type (a file has no analytic inside test to combine)."""
+    if not isinstance(value, list) or len(value) < 2:
+        problems.add(path, f"expected a list of at least 2 geometries, got "
+                     f"{describe(value)}")
+        return INVALID
+    members = []
+    for i, item in enumerate(value):
+        member = GEOMETRY(item, join(path, i), problems)
+        if member is not INVALID and member.get("type") not in CSG_MEMBERS:
+            problems.add(join(join(path, i), "type"),
+                         f"a {member['type']} cannot be part of a union or difference "
+                         f"(only {', '.join(CSG_MEMBERS)})")
+            member = INVALID
+        members.append(member)
+    return members
+
+
 CHECKS = {"box": check_min_below_max, "cylinder": _check_cylinder, "sphere": lambda *a: None,
-          "ogive": _check_ogive, "mesh": lambda *a: None, "prism": _check_prism}
+          "ogive": _check_ogive, "mesh": lambda *a: None, "prism": _check_prism,
+          "surface": lambda *a: None, "points": _check_points_geometry,
+          "union": lambda *a: None, "difference": lambda *a: None}
 
 
 def check_bodies_in_grid(bodies, grid, case_dir, problems):
@@ -215,11 +301,15 @@ def check_bodies_in_grid(bodies, grid, case_dir, problems):
                              body["fem"].get("element_size", grid["cell"]))
             continue
         try:
-            points, _ = fill_geometry(body["geometry"], grid, body["particles_per_cell"],
-                                      case_dir)
-        except MeshReadError as error:
-            problems.add(join(path, "file"),
-                         f"cannot read {body['geometry']['file']!r}: {error}")
+            points, volumes = fill_geometry(body["geometry"], grid,
+                                            body["particles_per_cell"], case_dir)
+        except FILE_ERRORS as error:
+            key, message = file_problem(body["geometry"], error)
+            problems.add(join(path, key), message)
+            continue
+        if body["geometry"]["type"] == "points":
+            _check_file_points(points, body["geometry"], grid, path, problems)
+            filled[i] = (points, float(np.cbrt(volumes.mean())))
             continue
         _check_points(points, grid, body["particles_per_cell"], path, problems)
         filled[i] = (points, grid["cell"] / body["particles_per_cell"])
@@ -235,9 +325,13 @@ def _in_shape_frame(points, geometry):
     return origin + (points - origin) @ rotation_matrix(rotate["axis"], rotate["angle_deg"])
 
 
+#: the geometries read from a file, which the overlap check does not test points against
+FILE_GEOMETRIES = ("mesh", "surface", "points")
+
+
 def _inside(points, geometry):
-    """Which ``points`` lie inside the analytic ``geometry`` (None for a mesh)."""
-    if geometry["type"] == "mesh" or len(points) == 0:
+    """Which ``points`` lie inside the analytic ``geometry`` (None for a file's)."""
+    if geometry["type"] in FILE_GEOMETRIES or len(points) == 0:
         return None
     return make_shape(geometry).contains(_in_shape_frame(points, geometry))
 
@@ -245,8 +339,8 @@ def _inside(points, geometry):
 def check_overlaps(bodies, filled, problems):
     """One problem per pair of bodies where particles of one lie inside the other's shape:
     their mass would count twice there. ``filled`` maps a body's index to its particles'
-    positions and spacing. A mesh body's own shape is not tested (only the analytic
-    shapes of the others against its particles)."""
+    positions and spacing. The shape of a body from a file (mesh, surface, points) is not
+    tested (only the analytic shapes of the others against its particles)."""
     for j in sorted(filled):
         for i in sorted(filled):
             if i >= j:
@@ -266,10 +360,12 @@ def check_overlaps(bodies, filled, problems):
 
 
 def check_mesh_files(bodies, case_dir, problems):
-    """Cheap check used when bodies are not filled: every mesh file exists."""
+    """Cheap check used when bodies are not filled: every mesh, surface or point file
+    exists."""
     for i, body in enumerate(bodies):
         geometry = body["geometry"] if body is not INVALID else INVALID
-        if geometry is INVALID or has_invalid(geometry) or geometry["type"] != "mesh":
+        if geometry is INVALID or has_invalid(geometry) or \
+                geometry["type"] not in FILE_GEOMETRIES:
             continue
         if not os.path.isfile(os.path.join(case_dir, geometry["file"])):
             problems.add(join(join(join("bodies", i), "geometry"), "file"),
@@ -289,6 +385,20 @@ def check_nodes_in_grid(points, grid, path, problems):
                                       (points > np.asarray(grid["max"]) + tol)).any(axis=1)))
         problems.add(path, f"{count} nodes of the FEM body lie outside the grid box ("
                      + "; ".join(outside) + "); nodes may lie on its faces, not beyond")
+
+
+def _check_file_points(points, geometry, grid, path, problems):
+    """Every particle of a point file lies inside the grid box (min <= x < max, as
+    particles are kept)."""
+    outside = ((points < np.asarray(grid["min"])) |
+               (points >= np.asarray(grid["max"]))).any(axis=1)
+    if outside.any():
+        first = np.flatnonzero(outside)[0]
+        problems.add(join(path, "file"), f"{int(outside.sum())} of the {len(points)} "
+                     f"points of {geometry['file']!r} lie outside the grid box (point "
+                     f"{first} at ({', '.join(f'{v:g}' for v in points[first])}), grid "
+                     f"{grid['min']} to {grid['max']}); move them (translate) or widen "
+                     f"the grid")
 
 
 def _check_points(points, grid, particles_per_cell, path, problems):

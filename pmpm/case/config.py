@@ -124,6 +124,8 @@ class OutputConfig:
     checkpoint_every: int
     checkpoints: bool
     progress: bool
+    precision: str
+    forces: bool
     every: float
     probes: tuple
     times: tuple

@@ -27,7 +27,9 @@ CONSTRAINT = {
                     OMIT, "mm", "the body's nodes inside this box at t = 0 (give region or "
                                 "node_set)"),
     "node_set": Field(text(), OMIT, doc="a node set of the body's mesh file (Abaqus *NSET, "
-                                        "meshio point_sets; give region or node_set)"),
+                                        "meshio point_sets, or a Gmsh .msh physical group "
+                                        "of any dimension by its name: the nodes of its "
+                                        "cells; give region or node_set)"),
     "fix": Field(list_of(choice(AXIS_NAMES, "axis"), 1, "axis"),
                  doc="the velocity components held at zero, e.g. [x, y, z] (clamped) or [z]"),
 }

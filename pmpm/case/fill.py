@@ -4,7 +4,8 @@ The lattice spacing is d = grid.cell / particles_per_cell. An unrotated body use
 lattice grid.min + (i + 1/2) d, aligned with the grid (2 particles per cell per direction
 sit at the cell's quarter points). A rotated body is filled in its own frame on the
 lattice reference_point + (i + 1/2) d, which is then rotated: a rotated box whose sides
-are whole multiples of d gets exactly (side / d) particles per side.
+are whole multiples of d gets exactly (side / d) particles per side. A ``points`` body is
+not filled: its particles are its file's points (rotated if asked), as they are.
 """
 import os
 
@@ -12,28 +13,47 @@ import numpy as np
 
 from .errors import CaseError
 from .mesh import CHUNK, MeshReadError, lattice_points_in_tets, read_tets
+from .points import PointReadError, read_points
 from .shapes import TOL, make_shape, reference_point, rotation_matrix
+from .surface import SurfaceError, lattice_points_in_surface, read_surface
+
+#: what reading a geometry's file may raise (file_problem says which key and why)
+FILE_ERRORS = (MeshReadError, SurfaceError, PointReadError)
 
 
 def fill_body(body, grid, case_dir="."):
     """Particles of a validated body: (positions float64 (n, 3), volumes float64 (n,)).
 
     ``case_dir`` is the folder mesh file names are relative to. Raises CaseError if a
-    mesh file cannot be read.
+    mesh, surface or point file cannot be used.
     """
     try:
         return fill_geometry(body["geometry"], grid, body["particles_per_cell"], case_dir)
-    except MeshReadError as error:
-        file = body["geometry"]["file"]
-        raise CaseError([f"body {body['name']!r} geometry.file: cannot read {file!r}: "
-                         f"{error}"]) from None
+    except FILE_ERRORS as error:
+        key, message = file_problem(body["geometry"], error)
+        raise CaseError([f"body {body['name']!r} geometry.{key}: {message}"]) from None
+
+
+def file_problem(geometry, error):
+    """(the geometry key at fault, the message) of a FILE_ERRORS ``error``."""
+    if isinstance(error, PointReadError):
+        return error.key, str(error)
+    if isinstance(error, SurfaceError):
+        return "file", f"{geometry['file']!r}: {error}"
+    return "file", f"cannot read {geometry['file']!r}: {error}"
 
 
 def fill_geometry(geometry, grid, particles_per_cell, case_dir="."):
     """(positions, volumes) of ``geometry`` filled at spacing grid.cell/particles_per_cell,
     and inside each of ``grid.windows`` at the window's spacing (cell / ratio /
     particles_per_cell): the particles of a window are the lattice points of its spacing
-    inside it, those of the coarse grid the coarse lattice points outside every window."""
+    inside it, those of the coarse grid the coarse lattice points outside every window.
+    A points geometry gives its file's particles (rotated by ``rotate``)."""
+    if geometry["type"] == "points":
+        positions, volumes = read_points(geometry, case_dir)
+        if geometry.get("rotate"):
+            positions = rotate_points(positions, geometry["rotate"])
+        return positions, volumes
     points = lattice_fill(geometry, grid, grid["cell"] / particles_per_cell, case_dir)
     coarse = np.ones(len(points), dtype=bool)
     for window in windows_of(grid):
@@ -95,6 +115,12 @@ def points_inside(geometry, anchor, spacing, case_dir, clip=None):
         tets = read_tets(os.path.join(case_dir, geometry["file"]),
                          geometry["scale"], geometry["translate"])
         return lattice_points_in_tets(tets, anchor, spacing)
+    if geometry["type"] == "surface":
+        surface = read_surface(os.path.join(case_dir, geometry["file"]),
+                               geometry["scale"], geometry["translate"])
+        box = None if clip is None else (np.asarray(clip["min"]) - spacing,
+                                         np.asarray(clip["max"]) + spacing)
+        return lattice_points_in_surface(*surface, anchor, spacing, box)
     shape = make_shape(geometry)
     lo, hi = (np.asarray(b, float) for b in shape.bounds())
     if clip is not None:

@@ -429,14 +429,58 @@ def hex_mesh(geometry, element_size, case_dir="."):
 
 
 def read_node_sets(path):
-    """{name: node indices} of the node sets (meshio ``point_sets``: Abaqus *NSET, ...) of
-    a mesh file, numbered as :func:`read_hexes` numbers its points."""
+    """{name: node indices} of the node sets of a mesh file, numbered as
+    :func:`read_hexes` numbers its points: meshio ``point_sets`` (Abaqus *NSET, ...) and
+    the nodes of the cells of each Gmsh physical group (``.msh``: a group of any dimension,
+    named by its physical name; nodes no hexahedron uses are left out)."""
     mesh = _read_mesh(path)
     blocks = [np.asarray(b.data)[:, :8] for b in mesh.cells if b.type.startswith("hexahedron")]
     used = np.unique(np.concatenate(blocks)) if blocks else np.zeros(0, np.int64)
-    sets = {}
-    for name, indices in (mesh.point_sets or {}).items():
-        indices = np.asarray(indices, np.int64).ravel()
+    sets = dict(physical_group_nodes(mesh))
+    sets.update({str(name): np.asarray(indices, np.int64).ravel()
+                 for name, indices in (mesh.point_sets or {}).items()})
+    out = {}
+    for name, indices in sets.items():
         kept = indices[np.isin(indices, used)]
-        sets[str(name)] = np.searchsorted(used, kept)
-    return sets
+        out[name] = np.searchsorted(used, kept)
+    return out
+
+
+#: the dimension of meshio's cell types, by the start of their names
+CELL_DIMENSIONS = (("vertex", 0), ("line", 1), ("triangle", 2), ("quad", 2),
+                   ("polygon", 2), ("tetra", 3), ("hexahedron", 3), ("wedge", 3),
+                   ("pyramid", 3))
+
+
+def cell_dimension(cell_type):
+    """0 to 3 for a meshio cell type, None for one not known."""
+    for start, dim in CELL_DIMENSIONS:
+        if cell_type.startswith(start):
+            return dim
+    return None
+
+
+def physical_group_nodes(mesh):
+    """{physical name: the mesh's point indices} of the nodes of the cells of each Gmsh
+    physical group (meshio's ``field_data`` name -> [tag, dimension]). The cells are
+    meshio's ``cell_sets`` of the name where it has them (Gmsh 4.1) or else those whose
+    ``gmsh:physical`` tag and dimension are the group's (Gmsh 2.2)."""
+    tags = mesh.cell_data.get("gmsh:physical")
+    groups = {}
+    for name, value in (mesh.field_data or {}).items():
+        value = np.asarray(value).ravel()
+        if len(value) < 2:
+            continue
+        chosen = mesh.cell_sets.get(name) if mesh.cell_sets else None
+        nodes = []
+        for k, block in enumerate(mesh.cells):
+            if chosen is not None:
+                rows = chosen[k] if k < len(chosen) and chosen[k] is not None else []
+            elif tags is not None and cell_dimension(block.type) in (int(value[1]), None):
+                rows = np.flatnonzero(np.asarray(tags[k]) == int(value[0]))
+            else:
+                rows = []
+            data = np.asarray(block.data)
+            nodes.append(data[np.asarray(rows, np.int64)].ravel() if len(rows) else [])
+        groups[str(name)] = np.unique(np.concatenate(nodes + [[]]).astype(np.int64))
+    return groups

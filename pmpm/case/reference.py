@@ -259,11 +259,21 @@ constants `E`, `nu`, `K`, `G`, which must give -1 < nu < 0.5; `T_melt` must exce
 A body is filled with particles on a lattice of spacing d = `grid.cell /
 particles_per_cell` at `grid.min + (i + 1/2) d`, keeping the points inside the shape;
 each particle gets volume d^3 and mass density * d^3. A body must get at least one
-particle, and all of them must lie inside the grid box.""",
+particle, and all of them must lie inside the grid box. A `points` body is not filled:
+its particles are its file's points, with the file's volumes (or spacing^3).""",
     "bodies[i].geometry": """
 A rotated body is filled on a lattice in its own frame, anchored at the geometry's
 reference point, and then rotated: a box whose sides are whole multiples of d gets
-exactly side/d particles along each side at any angle.""",
+exactly side/d particles along each side at any angle. Besides the built-in shapes, a
+body may be a volume mesh (`mesh`), a closed STL or OBJ surface (`surface`), a point file
+(`points`: CSV, HDF5 or a VTU cloud), or a `union` or `difference` of built-in shapes,
+e.g. a plate with a hole:
+
+```yaml
+geometry: {type: difference, of: [{type: box, min: [-5, -5, -2], max: [5, 5, 2]},
+                                  {type: cylinder, base: [0, 0, -3], axis: z, radius: 3,
+                                   length: 6}]}
+```""",
     "loads[i]": "A traction or force on the particles of one body inside a box.",
     "contact": """
 With `method` 1 or 2 every body has its own nodal velocity field at the nodes that

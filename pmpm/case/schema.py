@@ -85,10 +85,15 @@ TIME = {
 PROBE = {
     "name": Field(Custom(_body_name, "string of letters, digits, _, -"),
                   doc="the probe's name: its history goes to probe_NAME.csv"),
-    "body": Field(text(), doc="the (particle) body it follows"),
+    "body": Field(text(), doc="the body it samples: its particles, or an FEM body's "
+                              "nodes (position and velocity; the stress columns read NaN)"),
     "point": Field(vector(), unit="mm",
-                   doc="the body's particle nearest this point at the start is followed "
-                       "(ties: the lower id); the same on any number of ranks"),
+                   doc="the body's particle (or FE node) nearest this point at the start is "
+                       "followed (ties: the lower id); the same on any number of ranks"),
+    "fixed": Field(boolean(), False,
+                   doc="true: a gauge fixed in space: at every history row the body's "
+                       "particle (or FE node) nearest `point` then is sampled, instead of "
+                       "following one"),
 }
 OUTPUT = {
     "frames": Field(integer(at_least(1)), 10,
@@ -104,12 +109,25 @@ OUTPUT = {
                              "to save disk; a SIGTERM or SIGINT still writes one so that "
                              "the run can be continued)"),
     "progress": Field(boolean(), True, doc="print progress lines (rank 0)"),
+    "precision": Field(choice(("float64", "float32"), "frame precision"), "float64",
+                       doc="floating-point precision of the frames (particles.h5, "
+                           "elements.h5): `float32` halves them on disk (about 7 "
+                           "significant digits); checkpoints stay float64, so a restart "
+                           "is exact either way"),
+    "forces": Field(boolean(), True,
+                    doc="write forces.csv at every history row: the contact force on each "
+                        "body from each other body (x, y, z, normal, tangential) and the "
+                        "energy their contact has dissipated since the start, the "
+                        "reaction of each constrained grid face and of each FEM body's "
+                        "constrained nodes, as the mean force since the previous row "
+                        "(force units: g mm/ms^2 = N in mm-ms-g), so that a column "
+                        "integrated over time is the impulse"),
     "every": Field(number(greater(0)), None, "ms",
                    "a frame at every multiple of this time, besides `frames` (given "
                    "without `frames`, only these and the final frame are written)"),
     "probes": Field(list_of(mapping(PROBE), 0, "probe"), [],
-                    doc="particles followed through the run: at every history row "
-                        "probe_NAME.csv gets its position, velocity, stress, eps_p, "
+                    doc="points followed through the run, or gauges fixed in space: at "
+                        "every history row probe_NAME.csv gets its position, velocity, stress, eps_p, "
                         "pressure and von Mises stress"),
     "times": Field(number_list(0), [], "ms",
                    "extra frame times, each in (0, time.end], written besides the equally "
@@ -117,7 +135,9 @@ OUTPUT = {
     "energy_warning": Field(number(at_least(0)), 0.05, "1",
                             "warn (once) when the energy balance (kinetic + internal + "
                             "gravitational, less the work of loads) has grown by more than "
-                            "this fraction since the start; 0: never"),
+                            "this fraction since the start, and when it has lost more than "
+                            "this fraction (plastic work and hourglass energy are no loss: "
+                            "they stay in the internal energy); 0: never"),
     "energy_fault": Field(number(at_least(0)), 10.0, "1",
                           "stop the run as a fault (exit 1) when the energy balance has "
                           "grown by more than this fraction since the start (10: to 11 "
@@ -444,7 +464,7 @@ def _check_output_times(case, problems):
 
 
 def _check_probes(case, body_names, problems):
-    """Probe names unique; each follows a particle body that exists."""
+    """Probe names unique; each samples a body that exists."""
     if not valid(case["output"], "probes"):
         return
     probes = case["output"]["probes"]
@@ -458,9 +478,6 @@ def _check_probes(case, body_names, problems):
         body = bodies.get(probe["body"])
         if body is None:
             problems.add(path, unknown_name("body", probe["body"], body_names))
-        elif valid(body, "method") and body["method"] == "fem":
-            problems.add(path, f"body {probe['body']!r} is an FEM body; probes follow "
-                         f"particles (its elements are in elements.h5)")
 
 
 def _unique_names(items, section, problems):

@@ -15,20 +15,95 @@ AXES = {"x": 0, "y": 1, "z": 2}
 def reference_point(geometry):
     """The point a rotated lattice is anchored at and ``rotate`` turns about by default:
     box: min corner; cylinder: base centre; sphere: centre; ogive: base (or tip when only
-    the tip is given); mesh: ``translate`` (where the mesh's origin lands); prism: its
-    section's first point on the base plane."""
+    the tip is given); mesh, surface, points: ``translate`` (where the file's origin
+    lands); prism: its section's first point on the base plane; union, difference: the
+    first shape's (turned by that shape's own ``rotate``)."""
     kind = geometry["type"]
     if kind == "prism":
         return Prism(geometry).corner().tolist()
-    key = {"box": "min", "cylinder": "base", "sphere": "center", "mesh": "translate"}.get(kind)
+    if kind in CSG:
+        first = geometry["of"][0]
+        return placed_points(np.asarray([reference_point(first)], float), first)[0].tolist()
+    key = {"box": "min", "cylinder": "base", "sphere": "center", "mesh": "translate",
+           "surface": "translate", "points": "translate"}.get(kind)
     if key is None:
         key = "base" if "base" in geometry else "tip"
     return [float(v) for v in geometry[key]]
 
 
 def make_shape(geometry):
-    """The analytic shape object for a box, cylinder, sphere or ogive geometry."""
+    """The analytic shape object for a box, cylinder, sphere, ogive, prism, union or
+    difference geometry (its own ``rotate`` is not applied: fill.py turns the filled
+    points; the shapes inside a union or difference are turned by theirs)."""
     return SHAPES[geometry["type"]](geometry)
+
+
+class Placed:
+    """A shape of a union or difference, turned by its own ``rotate`` (if any) about its
+    origin: a point is inside when, turned back, it is inside the unturned shape."""
+
+    def __init__(self, g):
+        self.shape, self.rotate = make_shape(g), g.get("rotate")
+
+    def bounds(self):
+        """The box around the turned box of the unturned shape's bounds."""
+        lo, hi = (np.asarray(b, float) for b in self.shape.bounds())
+        if not self.rotate:
+            return lo, hi
+        corners = np.array([[(lo, hi)[k >> a & 1][a] for a in range(3)] for k in range(8)])
+        corners = _turn(corners, self.rotate, inverse=False)
+        return corners.min(axis=0), corners.max(axis=0)
+
+    def contains(self, p):
+        return self.shape.contains(_turn(p, self.rotate, inverse=True) if self.rotate
+                                   else p)
+
+
+class Union:
+    """The points inside any of the shapes ``of``."""
+
+    def __init__(self, g):
+        self.parts = [Placed(member) for member in g["of"]]
+
+    def bounds(self):
+        boxes = [part.bounds() for part in self.parts]
+        return (np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0))
+
+    def contains(self, p):
+        inside = np.zeros(len(p), bool)
+        for part in self.parts:
+            inside |= part.contains(p)
+        return inside
+
+
+class Difference:
+    """The points inside the first shape of ``of`` and inside none of the others (their
+    surfaces, within the tolerance, are cut away with them)."""
+
+    def __init__(self, g):
+        self.parts = [Placed(member) for member in g["of"]]
+
+    def bounds(self):
+        return self.parts[0].bounds()
+
+    def contains(self, p):
+        inside = self.parts[0].contains(p)
+        for part in self.parts[1:]:
+            inside &= ~part.contains(p)
+        return inside
+
+
+def placed_points(points, geometry):
+    """``points`` of the geometry's own frame turned by its ``rotate`` (if any)."""
+    rotate = geometry.get("rotate")
+    return _turn(points, rotate, inverse=False) if rotate else points
+
+
+def _turn(points, rotate, inverse):
+    """Points turned by ``rotate`` = {axis, angle_deg, origin} (or back, ``inverse``)."""
+    origin = np.asarray(rotate["origin"], float)
+    matrix = rotation_matrix(rotate["axis"], rotate["angle_deg"])
+    return origin + (points - origin) @ (matrix if inverse else matrix.T)
 
 
 class Box:
@@ -168,7 +243,9 @@ def quad_turns(corners):
 
 
 SHAPES = {"box": Box, "cylinder": Cylinder, "sphere": Sphere, "ogive": Ogive,
-          "prism": Prism}
+          "prism": Prism, "union": Union, "difference": Difference}
+#: the constructive geometries, made of the analytic shapes
+CSG = ("union", "difference")
 
 
 def nose_length(diameter, crh):

@@ -16,7 +16,10 @@ import numpy as np
 from .errors import join
 from .fill import clip_at_symmetry_planes, in_window, rotate_points, windows_of
 from .mesh import MeshReadError, lattice_points_in_tets, read_tets
-from .shapes import make_shape, nose_length, reference_point
+from .points import PointReadError, read_points
+from .shapes import CSG, make_shape, nose_length, reference_point
+from .surface import (SurfaceError, lattice_points_in_surface, read_surface,
+                      surface_volume)
 
 #: Lattice points sampled per body for the shares of its volume (cut, refined).
 SAMPLES = 200_000
@@ -38,8 +41,11 @@ ELEMENT_PARTICLES = 2.0
 
 
 def shape_volume(geometry, tets=None):
-    """Exact volume of an analytic geometry (or of the mesh's tetrahedra ``tets``)."""
+    """Exact volume of an analytic geometry (or of the mesh's tetrahedra ``tets``); None
+    for a union or difference (body_estimate counts its sample)."""
     kind = geometry["type"]
+    if kind in CSG:
+        return None
     if kind == "box":
         return float(np.prod(np.subtract(geometry["max"], geometry["min"])))
     if kind == "cylinder":
@@ -65,11 +71,14 @@ def shape_volume(geometry, tets=None):
     return float(np.abs(np.linalg.det(edges)).sum() / 6.0)
 
 
-def _sample(geometry, tets):
-    """Lattice points (global frame, rotation applied) inside the geometry, about
-    SAMPLES of them, and the sample's spacing."""
+def _sample(geometry, tets, surface=None):
+    """Lattice points (global frame, rotation applied) inside the geometry (or the mesh's
+    tetrahedra ``tets``, or the closed ``surface`` (points, triangles)), about SAMPLES of
+    them, and the volume each stands for."""
     if tets is not None:
         lo, hi = tets.reshape(-1, 3).min(axis=0), tets.reshape(-1, 3).max(axis=0)
+    elif surface is not None:
+        lo, hi = surface[0].min(axis=0), surface[0].max(axis=0)
     else:
         shape = make_shape(geometry)
         lo, hi = (np.asarray(b, float) for b in shape.bounds())
@@ -77,9 +86,13 @@ def _sample(geometry, tets):
     spacing = float(np.prod(extent) / SAMPLES) ** (1 / 3)
     spacing = max(spacing, float(extent.max()) / 2000)      # no more than 2000 per axis
     counts = np.minimum(np.maximum(np.floor(extent / spacing), 1), 4000).astype(int)
+    each = spacing ** 3
     if tets is not None:
         points = lattice_points_in_tets(tets, lo, spacing)
+    elif surface is not None:
+        points = lattice_points_in_surface(*surface, lo, spacing)
     else:
+        each = float(np.prod(extent / counts))
         axes = [lo[a] + (np.arange(counts[a]) + 0.5) * extent[a] / counts[a]
                 for a in range(3)]
         mesh = np.meshgrid(*axes, indexing="ij")
@@ -87,7 +100,7 @@ def _sample(geometry, tets):
         points = points[shape.contains(points)]
     if geometry.get("rotate"):
         points = rotate_points(points, geometry["rotate"])
-    return points
+    return points, each
 
 
 def fem_estimate(body, grid, case_dir):
@@ -127,15 +140,23 @@ def body_estimate(body, grid, case_dir):
     if body.get("method") == "fem":
         return fem_estimate(body, grid, case_dir)
     geometry, ppc = body["geometry"], body["particles_per_cell"]
-    tets = None
-    if geometry["type"] == "mesh":
-        try:
+    if geometry["type"] == "points":
+        return points_estimate(geometry, case_dir)
+    tets = surface = None
+    try:
+        if geometry["type"] == "mesh":
             tets = read_tets(os.path.join(case_dir, geometry["file"]), geometry["scale"],
                              geometry["translate"])
-        except MeshReadError:
-            return 0.0, None                 # reported when the bodies are filled
-    volume = shape_volume(geometry, tets)
-    points = _sample(geometry, tets)
+        elif geometry["type"] == "surface":
+            surface = read_surface(os.path.join(case_dir, geometry["file"]),
+                                   geometry["scale"], geometry["translate"])
+    except (MeshReadError, SurfaceError):
+        return 0.0, None                     # reported when the bodies are filled
+    points, each = _sample(geometry, tets, surface)
+    volume = surface_volume(*surface) if surface is not None else \
+        shape_volume(geometry, tets)
+    if volume is None:                       # a union or difference: its sample's
+        volume = len(points) * each
     density = (ppc / grid["cell"]) ** 3
     if len(points) == 0:                     # smaller than the sample's spacing
         return volume * density, None
@@ -147,6 +168,17 @@ def body_estimate(body, grid, case_dir):
         weights[in_window(kept, window, grid)] = density * window["ratio"] ** 3
     estimate = volume * float(weights.sum()) / len(points)
     return estimate, (kept.min(axis=0), kept.max(axis=0))
+
+
+def points_estimate(geometry, case_dir):
+    """(the particles of a point file, their bounding box): read, not estimated."""
+    try:
+        points, _ = read_points(geometry, case_dir)
+    except PointReadError:
+        return 0.0, None                     # reported when the bodies are filled
+    if geometry.get("rotate"):
+        points = rotate_points(points, geometry["rotate"])
+    return float(len(points)), (points.min(axis=0), points.max(axis=0))
 
 
 def grid_nodes(grid, boxes):

@@ -19,3 +19,18 @@ def with_stress_invariants(columns):
     """``columns`` with ``pressure`` and ``von_mises`` added from its ``stress``."""
     pressure, von_mises = stress_invariants(columns["stress"])
     return dict(columns, pressure=pressure, von_mises=von_mises)
+
+
+#: ``output.precision`` -> the numpy dtype of the frames' floating-point columns
+PRECISIONS = {"float64": np.float64, "float32": np.float32}
+
+
+def in_precision(columns, precision="float64"):
+    """``columns`` with every float64 array cast to ``precision`` ("float32" halves the
+    frames on disk; positions keep about 7 significant digits, plenty to look at a
+    run, while the checkpoints stay float64 so that a restart is exact)."""
+    dtype = PRECISIONS[precision]
+    if dtype is np.float64:
+        return columns
+    return {name: value.astype(dtype) if getattr(value, "dtype", None) == np.float64
+            else value for name, value in columns.items()}

@@ -37,7 +37,7 @@ import numpy as np
 
 from . import _by_id as B
 from . import _collective as C
-from .derived import with_stress_invariants
+from .derived import PRECISIONS, in_precision, with_stress_invariants
 from .elements_xdmf import write_elements_xdmf
 from .particles_h5 import STRESS_COMPONENTS
 
@@ -90,8 +90,10 @@ class ElementWriter:
     ``restart_frame``: continue an existing file after --restart, keeping the frames
     before that index (see :meth:`continue_file`); a new file if there is none."""
 
-    def __init__(self, path, elements, body_names, comm, restart_frame=None):
+    def __init__(self, path, elements, body_names, comm, restart_frame=None,
+                 precision="float64"):
         self.elements, self.path, self.comm = elements, path, comm
+        self.precision = precision
         self.count, self.written = 0, []
         if restart_frame is not None and C.bcast_root(comm, os.path.exists(path)):
             self.file = h5py.File(path, "r+", driver="mpio", comm=comm)
@@ -137,6 +139,8 @@ class ElementWriter:
         (rank 0)."""
         nodes, elements = self.elements.frame()
         nodes, elements = laid_out(self.comm, nodes, with_stress_invariants(elements))
+        nodes = in_precision(nodes, self.precision)
+        elements = in_precision(elements, self.precision)
         sizes = totals(self.comm, nodes, elements)
         if sizes == (self.n_nodes, self.n_elements):   # no element has become particles
             del elements["hexes"], elements["body"]
@@ -152,7 +156,7 @@ class ElementWriter:
         if self.comm.rank == 0:
             write_elements_xdmf(os.path.splitext(self.path)[0] + ".xdmf",
                                 os.path.basename(self.path), self.written, self.n_nodes,
-                                self.n_elements)
+                                self.n_elements, np.dtype(PRECISIONS[self.precision]).str)
 
     def close(self):
         if self.file:

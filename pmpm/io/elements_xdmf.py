@@ -12,12 +12,13 @@ CELL_SCALARS = ("eps_p", "density", "e_int", "damage", "hourglass_energy", "pres
                 "von_mises")
 
 
-def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements):
+def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements, real="<f8"):
     """Write ``path`` for ``frames``: a list of (group path, time, nodes, elements) in
     ``h5_name``; a frame whose counts differ from the mesh's (``n_nodes``,
-    ``n_elements``: elements converted into particles) has its own connectivity."""
+    ``n_elements``: elements converted into particles) has its own connectivity;
+    ``real``: the dtype of the floating-point datasets (output.precision)."""
     grids = "".join(_grid(h5_name, group, time, n, m,
-                          (n, m) != (n_nodes, n_elements))
+                          (n, m) != (n_nodes, n_elements), real)
                     for group, time, n, m in frames)
     text = ('<?xml version="1.0" ?>\n<Xdmf Version="3.0">\n <Domain>\n'
             '  <Grid Name="elements" GridType="Collection" CollectionType="Temporal">\n'
@@ -25,7 +26,7 @@ def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements):
     atomic_write_text(path, text)
 
 
-def _grid(h5, group, time, n, m, own_mesh=False):
+def _grid(h5, group, time, n, m, own_mesh=False, real="<f8"):
     pad = "      "
     ref = f"{h5}:{group}"
     hexes = f"{ref}/hexes" if own_mesh else f"{h5}:/mesh/hexes"
@@ -35,13 +36,15 @@ def _grid(h5, group, time, n, m, own_mesh=False):
              f'NodesPerElement="8">\n',
              _data_item(hexes, (m, 8), "<i8", pad), "    </Topology>\n",
              '    <Geometry GeometryType="XYZ">\n',
-             _data_item(f"{ref}/node_x", (n, 3), "<f8", pad), "    </Geometry>\n",
+             _data_item(f"{ref}/node_x", (n, 3), real, pad), "    </Geometry>\n",
              _attribute("velocity", "Vector", "Node",
-                        _data_item(f"{ref}/node_v", (n, 3), "<f8", pad))]
+                        _data_item(f"{ref}/node_v", (n, 3), real, pad)),
+             _attribute("displacement", "Vector", "Node",
+                        _data_item(f"{ref}/node_displacement", (n, 3), real, pad))]
     parts += [_attribute(label, "Scalar", "Cell",
-                         _column_slab(f"{ref}/stress", m, 6, k, "<f8", pad))
+                         _column_slab(f"{ref}/stress", m, 6, k, real, pad))
               for k, label in enumerate(STRESS_SCALARS)]
-    parts += [_attribute(name, "Scalar", "Cell", _data_item(f"{ref}/{name}", (m,), "<f8", pad))
+    parts += [_attribute(name, "Scalar", "Cell", _data_item(f"{ref}/{name}", (m,), real, pad))
               for name in CELL_SCALARS]
     return "".join(parts) + "   </Grid>\n"
 

@@ -45,6 +45,9 @@ def children_of(particles, parents, n, id_base, id_stride):
             column /= k
         children[name] = column
     children["x"] = (particles.x[parents][:, None, :] + moved).reshape(-1, 3)
+    # where each child was at the start: the parent's start plus its unstrained offset
+    children["x0"] = (particles.x0[parents][:, None, :]
+                      + offsets[None, :, :] * edge[:, None, None]).reshape(-1, 3)
     children["id"] = (id_base + particles.id[parents][:, None] * id_stride
                       + np.arange(k)[None, :]).reshape(-1)
     children["refine"] = children["refine"] * n

@@ -18,7 +18,8 @@ F8, I8, I4 = np.float64, np.int64, np.int32
 COLUMNS = column_table(
     [("x", F8, 3), ("v", F8, 3), ("mass", F8, 1), "rho", ("vol0", F8, 1), "stress", "F",
      "eps_p", "e_int", "temp", "q", ("load_scale", F8, 1), ("id", I8, 1),
-     ("body", I4, 1), ("load", I4, 1), ("refine", I4, 1), ("affine", F8, 9)],
+     ("body", I4, 1), ("load", I4, 1), ("refine", I4, 1), ("affine", F8, 9),
+     ("x0", F8, 3)],
     groups=[MATERIAL_GROUP])
 
 IDENTITY9 = np.eye(3).reshape(9)
@@ -37,6 +38,8 @@ class Particles(ColumnStore):
             columns = dict(columns, refine=np.ones(len(columns["mass"]), np.int32))
         if "affine" not in columns and "mass" in columns:    # checkpoints before APIC
             columns = dict(columns, affine=np.zeros((len(columns["mass"]), 9)))
+        if "x0" not in columns and "x" in columns:   # checkpoints before displacements
+            columns = dict(columns, x0=np.array(columns["x"], np.float64))
         if "mass" in columns:                                # checkpoints before damage
             columns = with_later_columns(columns, len(columns["mass"]))
         super().__init__(columns)

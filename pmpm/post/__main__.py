@@ -1,6 +1,7 @@
 """``python -m pmpm.post RESULTS_DIR [--frame N] [--field NAME] [--normal y] [--out DIR]``:
 quick-look PNGs of a run without ParaView (pmpm.post.plots): plot_energies.png,
-plot_bodies.png and plot_frame_N_FIELD.png, beside the run's files (``--force`` replaces
+plot_bodies.png, plot_forces.png (forces.csv), plot_probes.png (output.probes) and
+plot_frame_N_FIELD.png, beside the run's files (``--force`` replaces
 them with the run's). Exit 2 with one line when RESULTS_DIR holds no run."""
 import argparse
 import os
@@ -34,6 +35,12 @@ def main(argv=None):
     os.makedirs(out, exist_ok=True)
     written = [plots.plot_energies(args.results, os.path.join(out, "plot_energies.png")),
                plots.plot_bodies(args.results, os.path.join(out, "plot_bodies.png"))]
+    if os.path.exists(os.path.join(args.results, "forces.csv")):
+        written.append(plots.plot_forces(args.results, os.path.join(out, "plot_forces.png")))
+    probes = plots.probe_names(args.results)
+    if probes:
+        written.append(plots.plot_probes(args.results, os.path.join(out, "plot_probes.png"),
+                                         probes))
     if os.path.exists(os.path.join(args.results, "particles.h5")):
         try:
             name = f"plot_frame_{args.frame if args.frame >= 0 else 'last'}_" \

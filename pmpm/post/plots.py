@@ -1,7 +1,8 @@
 """Quick-look pictures of a finished (or running) pmpm run, written as PNG with
 matplotlib (``python -m pmpm.post RESULTS_DIR``): the energies and their balance, each
-body's velocity and displacement, and a frame as a projected scatter coloured by a
-field. Serial; reads history.csv, particles.h5 and elements.h5 as they are on disk."""
+body's velocity and displacement, the contact and reaction forces, the probes, and a
+frame as a projected scatter coloured by a field. Serial; reads history.csv,
+forces.csv, probe_NAME.csv, particles.h5 and elements.h5 as they are on disk."""
 import os
 
 import h5py
@@ -63,6 +64,65 @@ def plot_bodies(out_dir, path):
             axes.legend(fontsize="small")
     fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + ": bodies")
     return _save(fig, path)
+
+
+def read_csv(path):
+    """A CSV of the run (forces.csv, probe_NAME.csv) as a numpy record array."""
+    return np.genfromtxt(path, delimiter=",", names=True, deletechars="")
+
+
+def plot_forces(out_dir, path):
+    """forces.csv: each body pair's normal and tangential contact force (top) and each
+    constrained face's and FEM support's force components that are not zero (bottom)."""
+    forces = read_csv(os.path.join(out_dir, "forces.csv"))
+    t = forces["time"]
+    plt = pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    for name in forces.dtype.names[2:]:
+        values = forces[name]
+        if not np.any(values):
+            continue
+        if "/" in name and name.endswith((".normal", ".tangential")):
+            top.plot(t, values, label=name)
+        elif "/" not in name:
+            bottom.plot(t, values, label=name)
+    top.set_ylabel("contact force")
+    bottom.set_ylabel("reaction force")
+    bottom.set_xlabel("time")
+    for axes in (top, bottom):
+        if axes.lines:
+            axes.legend(fontsize="small")
+    fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + ": forces (mean over each row)")
+    return _save(fig, path)
+
+
+def plot_probes(out_dir, path, names):
+    """Each probe's velocity components (top) and pressure and von Mises stress
+    (bottom) against time."""
+    plt = pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    for name in names:
+        probe = read_csv(os.path.join(out_dir, f"probe_{name}.csv"))
+        for axis in AXES:
+            if np.nanmax(np.abs(probe[f"v{axis}"]), initial=0.0) > 0:
+                top.plot(probe["time"], probe[f"v{axis}"], label=f"{name} v{axis}")
+        for field in ("pressure", "von_mises"):
+            if not np.all(np.isnan(probe[field])):
+                bottom.plot(probe["time"], probe[field], label=f"{name} {field}")
+    top.set_ylabel("velocity")
+    bottom.set_ylabel("stress")
+    bottom.set_xlabel("time")
+    for axes in (top, bottom):
+        if axes.lines:
+            axes.legend(fontsize="small")
+    fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + ": probes")
+    return _save(fig, path)
+
+
+def probe_names(out_dir):
+    """The probes of a run, from its probe_NAME.csv files."""
+    return sorted(f[len("probe_"):-len(".csv")] for f in os.listdir(out_dir)
+                  if f.startswith("probe_") and f.endswith(".csv"))
 
 
 def frame_points(out_dir, index, field):

@@ -79,6 +79,7 @@ def _body_columns(index, body, table, positions, volumes, cell):
     cols = {name: empty_column(name, n) for name in COLUMNS}
     prm = table.params[index]
     cols["x"][:] = positions
+    cols["x0"][:] = positions
     for d, component in enumerate(body.velocity):
         cols["v"][:, d] = initial_field(component, positions, f"bodies[{index}].velocity[{d}]")
     cols["vol0"][:] = volumes

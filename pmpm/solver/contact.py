@@ -10,7 +10,7 @@ from ..kernels.boundary import column_kinds, mirror_extents, mirror_masks
 from ..kernels import tied
 from ..kernels.records import ContactSlots, ContactView, PairRules
 from ..materials import layout
-from .couplings import Coupling
+from .couplings import Coupling, kept_copy
 from .workspace import Workspace
 
 #: how the contact slots' arrays reflect across planes of symmetry (kernels.boundary)
@@ -208,6 +208,7 @@ class ContactFields:
         self.cnew = np.zeros((0, 1, kc.CNEW))
         self.cext = np.zeros((0, 1, kc.CEXT))
         self.cvol = np.zeros((0, 1))
+        self.real_mass = None
 
     def find_contact_nodes(self, kinds, state):
         """Nodes that points of two or more bodies reach, tied slaves left out (they
@@ -252,6 +253,8 @@ class ContactFields:
         for kind in kinds:
             kind.scatter_contact(state, self.slot_of, self.cnodal)
         self.sum_on_shared_planes(state.block, self.cnodal)
+        # what each body's own particles put on the nodes (the force histories)
+        self.real_mass = kept_copy(self.real_mass, self.cnodal[:, :, 0])
         state.reflect(self.cnodal, CNODAL_KINDS, self.slot_of)
         if extents and volumes:
             self.cvol = self.slot_array("cvol", 1, n_bodies)[:, :, 0]

@@ -151,6 +151,8 @@ class Conversion:
         x, v = fem.x[fem.hexes[group]], fem.v[fem.hexes[group]]     # (m, 8, 3)
         columns = {name: empty_column(name, len(group) * k) for name in COLUMNS}
         columns["x"][:] = np.einsum("kn,mnd->mkd", shape, x).reshape(-1, 3)
+        columns["x0"][:] = np.einsum("kn,mnd->mkd", shape,
+                                     fem.x0[fem.hexes[group]]).reshape(-1, 3)
         columns["v"][:] = np.einsum("kn,mnd->mkd", shape, v).reshape(-1, 3)
         columns["mass"][:] = np.repeat(fem.element_mass[group] / k, k)
         columns["vol0"][:] = np.repeat(fem.vol0[group] / k, k)

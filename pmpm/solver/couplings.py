@@ -2,7 +2,8 @@
 
 A coupling answers the step's hooks (all optional, in step order):
 ``after_scatter`` (before the shared-plane sums of mass and momentum),
-``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums),
+``before_reflect`` (after the sums of the nodal values or forces, before their
+reflection across planes of symmetry), ``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums),
 ``after_integrate`` and ``after_update_points`` (the points and FE nodes have moved),
 and ``after_elements_changed`` (elements turned into particles at the end of a step);
 and gives the point kernels its ``view`` of a level (None: the point kernels see the one
@@ -22,6 +23,10 @@ class Coupling:
 
     def after_scatter(self, grids, kinds):
         pass
+
+    def before_reflect(self, grids, what):
+        """The shared-plane sums of ``what`` ("nodal" or "force") are complete; the
+        reflection across planes of symmetry comes next."""
 
     def after_mass_sum(self, grids, kinds):
         pass

@@ -17,6 +17,13 @@ CAUSES = ("particles crossing cells with linear shape functions, worst where the
           "bodies and fixed faces also do work the balance does not count")
 
 
+LOSS_CAUSES = ("contact between bodies (its dissipation is not measured: see "
+               "docs/validation/energy_channels.md), time.pic or APIC damping (a PIC "
+               "share takes kinetic energy at every transfer), a coarse grid under large rotations, particles that left the "
+               "grid, elements or particles removed, fixed faces or rigid bodies "
+               "absorbing an impact")
+
+
 class EnergyWatch:
     """Follows the growth of the energy balance since the start, relative to the energy
     the run was given: the initial kinetic + internal energy plus the largest energy
@@ -39,11 +46,14 @@ class EnergyWatch:
         self.largest, self.largest_at = 0.0, 0.0
         self.load_work = 0.0
         self.warned = False
+        self.loss, self.largest_loss, self.largest_loss_at = 0.0, 0.0, 0.0
+        self.warned_loss = False
 
     def observe(self, time, energy, potential, load_work):
         """Take the energies of a history row (``energy``: kinetic, internal, total), the
         gravitational potential and the work the loads have done so far (all over all
-        ranks); returns the growth since the start."""
+        ranks); returns the growth since the start. A loss is followed too
+        (:meth:`observe_loss`)."""
         if self.start is None:
             self.start = (energy["total"], potential)
         given, potential0 = self.start
@@ -57,7 +67,26 @@ class EnergyWatch:
         if self.threshold > 0 and self.growth > self.threshold and not self.warned:
             self.warned = True
             self.warn(time)
+        self.observe_loss(time, drift, given + self.supplied)
         return self.growth
+
+    def observe_loss(self, time, drift, scale):
+        """The energy the balance has lost, as a fraction of what the run was given.
+        Plastic work, heat and the elements' hourglass energy stay in ``internal``, so
+        they are no loss; what is lost went to a channel the balance does not hold
+        (:data:`LOSS_CAUSES`). Warned once past the threshold, as a gain is."""
+        self.loss = -drift / max(scale, 1e-300)
+        if self.loss > self.largest_loss:
+            self.largest_loss, self.largest_loss_at = self.loss, time
+        if self.threshold > 0 and self.loss > self.threshold and not self.warned_loss:
+            self.warned_loss = True
+            if self.speak:
+                self.stream.write(
+                    f"pmpm: warning: the energy balance has lost {100 * self.loss:.1f} % by "
+                    f"t = {time:.6g} (output.energy_warning: {self.threshold:g}; plastic "
+                    f"work and hourglass energy are not losses, they stay in the internal "
+                    f"energy); usual causes: {LOSS_CAUSES}\n")
+                self.stream.flush()
 
     def warn(self, time):
         if self.speak:
@@ -81,13 +110,16 @@ class EnergyWatch:
         return {"growth": self.growth, "largest_growth": self.largest,
                 "largest_growth_at": self.largest_at, "threshold": self.threshold,
                 "fault": self.fault,
-                "warned": self.warned}
+                "warned": self.warned, "loss": self.loss,
+                "largest_loss": self.largest_loss, "largest_loss_at": self.largest_loss_at,
+                "warned_loss": self.warned_loss}
 
     def state(self):
         return {"start": list(self.start) if self.start else None,
                 "supplied": self.supplied, "largest": self.largest,
                 "largest_at": self.largest_at, "load_work": self.load_work,
-                "warned": self.warned}
+                "warned": self.warned, "largest_loss": self.largest_loss,
+                "largest_loss_at": self.largest_loss_at, "warned_loss": self.warned_loss}
 
     def restore(self, state):
         if state:
@@ -95,6 +127,9 @@ class EnergyWatch:
             self.supplied = state["supplied"]
             self.largest, self.largest_at = state["largest"], state["largest_at"]
             self.load_work, self.warned = state["load_work"], state["warned"]
+            self.largest_loss = state.get("largest_loss", 0.0)
+            self.largest_loss_at = state.get("largest_loss_at", 0.0)
+            self.warned_loss = state.get("warned_loss", False)
 
 
 def gravitational_potential(world, particles, gravity):

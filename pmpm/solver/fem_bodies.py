@@ -92,6 +92,7 @@ class FemBodies:
         self.speed, self.fault = 0.0, None
         self.converted_hourglass = 0.0     # of this rank's elements that became particles
         self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
+        self.force_log = None             # solver.forces.ForceLog, set by the simulation
         self.faces = constrained_faces(config.grid)
         self.box = (np.asarray(config.grid.min, np.float64),
                     np.asarray(config.grid.max, np.float64))
@@ -139,6 +140,7 @@ class FemBodies:
         self.element_id, self.node_id = part.elements, part.nodes
         self.partners, self.owned = part.partners, part.owned
         self.x = np.ascontiguousarray(whole.x[part.nodes])
+        self.x0 = self.x.copy()                     # where each node was at the start
         self.hexes = np.ascontiguousarray(part.hexes, np.int64)
         self.node_body = whole.node_body[part.nodes]
         self.body = whole.body[part.elements]
@@ -242,7 +244,8 @@ class FemBodies:
         return columns
 
     def node_columns(self):
-        return {"node_id": self.node_id, "x": self.x, "v": self.v, "mass": self.mass,
+        return {"node_id": self.node_id, "x": self.x, "x0": self.x0, "v": self.v,
+                "mass": self.mass,
                 "fixed": self.fixed, "load": self.load, "load_scale": self.load_scale,
                 "node_body": self.node_body}
 
@@ -250,6 +253,8 @@ class FemBodies:
         """Take the elements and nodes this rank now holds (any order; kept sorted by
         global id), and find again the nodes it shares."""
         order = np.argsort(nodes["node_id"], kind="stable")
+        if "x0" not in nodes:                       # checkpoints before displacements
+            nodes = dict(nodes, x0=nodes["x"])
         for name, column in nodes.items():
             setattr(self, name, np.ascontiguousarray(column[order]))
         order = np.argsort(elements["element_id"], kind="stable")
@@ -329,10 +334,24 @@ class FemBodies:
         return self.materials.rigid[self.node_body]
 
     def integrate(self, dt):
+        before = self.v.copy() if self.force_log is not None else None
         advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
         self.hold_at_faces(dt)
+        if before is not None:
+            self.log_reactions(before, dt)
         if self.rigid_motion is not None:          # free rigid bodies: gravity, one V each
             self.rigid_motion.integrate(self, dt)
+
+    def log_reactions(self, before, dt):
+        """The impulses the constraints and the grid faces gave the nodes this rank
+        counts in this step, m (v - v_before) - f dt, to the force log."""
+        counted = self.owned & ~self.rigid_nodes()
+        impulses = (self.mass[counted, None] * (self.v[counted] - before[counted])
+                    - dt * self.force[counted])
+        on_support = self.fixed[counted].any(axis=1)
+        self.force_log.node_reactions(self.node_body[counted], on_support, impulses,
+                                      face_of_impulses(self.faces, impulses,
+                                                       self.x[counted], 1e-9 * self.h))
 
     def hold_at_faces(self, dt):
         """The grid faces' conditions on every node but a rigid body's (module function)."""
@@ -426,7 +445,8 @@ class FemBodies:
         node ids; the writer puts them in id order."""
         s = self.state
         nodes = {"node_id": self.node_id[self.owned], "node_x": self.x[self.owned],
-                 "node_v": self.v[self.owned]}
+                 "node_v": self.v[self.owned],
+                 "node_displacement": self.x[self.owned] - self.x0[self.owned]}
         elements = {"element_id": self.element_id, "hexes": self.node_id[self.hexes],
                     "body": self.body, "stress": s.stress, "eps_p": s.eps_p,
                     "density": s.rho, "e_int": s.e_int, "damage": s.damage,
@@ -490,6 +510,24 @@ def constrained_faces(grid):
             if kind in ("fixed", "slip", "symmetry"):
                 faces.append((d, side, float(plane), kind == "fixed"))
     return faces
+
+
+def face_of_impulses(faces, impulses, x, tol):
+    """Per node and component, the constrained box face (2 axis + upper, -1: none) that
+    pushed it: the face of that axis the impulse points away from, else (the tangential
+    hold of a fixed face) a fixed face the node lies on."""
+    out = np.full(impulses.shape, -1, np.int64)
+    for d, side, _, _ in faces:
+        pushed = side * impulses[:, d] < 0.0        # into the box from this face
+        out[pushed, d] = 2 * d + (side > 0)
+    for d, side, plane, fixed in faces:
+        if not fixed:
+            continue
+        at = side * (plane - x[:, d]) <= tol
+        for e in range(3):
+            if e != d:
+                out[at & (out[:, e] < 0), e] = 2 * d + (side > 0)
+    return out
 
 
 def hold_at_faces(x, v, faces, movable, dt, tol):

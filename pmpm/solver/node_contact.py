@@ -139,6 +139,7 @@ class NodeContact(Coupling):
         self.friction = np.ascontiguousarray(rules.friction, np.float64)
         self.off_tol = TOLERANCE * grid.h
         self.last_pairs, self.largest_penetration, self.deepest = 0, 0.0, 0.0
+        self.force_log = None          # pmpm.solver.forces.ForceLog, set by the simulation
         self.start_x = None
         self.refresh_faces()
 
@@ -237,6 +238,9 @@ class NodeContact(Coupling):
                                self.friction, dt, impulses, depth)
         shifts = GAP_CLOSURE * np.maximum(depth, 0.0)[:, None] * geo[:, 2:5]
         self.push_nodes(segs, pair_n, pair_s, phi, impulses, shifts, dt)
+        if self.force_log is not None:
+            self.force_log.surface_pairs(self.node_body[pair_n], segs["body"][pair_s],
+                                         impulses, geo[:, 2:5])
         self.last_pairs = int(np.count_nonzero(depth >= 0.0))
         self.largest_penetration = float(-geo[:, 5].min()) if len(geo) else 0.0
         self.deepest = max(self.deepest, self.largest_penetration)

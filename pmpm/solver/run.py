@@ -5,8 +5,9 @@ import time as clock
 import numpy as np
 
 from .. import io
-from ..io.derived import with_stress_invariants
+from ..io.derived import in_precision, with_stress_invariants
 from ..io.elements_h5 import ElementWriter
+from ..io.forces import ForcesWriter
 from ..io.probes import ProbeWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
@@ -89,7 +90,7 @@ class Runner:
         self.last_checkpoint = None
         self.restart = restart
         self.probes = Probes(self.world, self.output.probes, sim.particles, names,
-                             restart.get("probes") if restart else None) \
+                             restart.get("probes") if restart else None, sim.elements) \
             if self.output.probes else None
         if restart:
             self.restore(restart)
@@ -268,25 +269,31 @@ class Runner:
         self.frame_index = self.writer.n_frames
         self.element_writer = ElementWriter(
             os.path.join(self.out, "elements.h5"), self.sim.elements, names,
-            self.world.raw, restart_frame=r["frame_index"] if r else None) \
-            if self.sim.elements else None
+            self.world.raw, restart_frame=r["frame_index"] if r else None,
+            precision=self.output.precision) if self.sim.elements else None
         self.probe_writer = ProbeWriter(
             self.out, self.probes.names, PROBE_COLUMNS,
             restart_step=r["step"] if r else None) \
             if self.probes and self.world.is_root else None
+        log = self.sim.force_log
+        self.forces_writer = ForcesWriter(
+            self.out, log.columns(), restart_step=r["step"] if r else None) \
+            if log and self.world.is_root else None
         self.history = io.HistoryWriter(
             os.path.join(self.out, "history.csv"), names,
             restart_step=r["step"] if r else None) if self.world.is_root else None
 
     def write_frame(self):
         p = self.sim.particles
-        columns = {"x": p.x, "v": p.v, "stress": p.stress, "eps_p": p.eps_p,
+        columns = {"x": p.x, "displacement": p.x - p.x0, "v": p.v, "stress": p.stress,
+                   "eps_p": p.eps_p,
                    "density": p.rho, "mass": p.mass, "body": p.body, "id": p.id,
                    "temp": p.temp, "e_int": p.e_int, "damage": p.damage}
         if self.sim.points.apic:
             columns["affine"] = p.affine
         self.writer.write_frame(self.sim.time, self.sim.step_count,
-                                with_stress_invariants(columns))
+                                in_precision(with_stress_invariants(columns),
+                                             self.output.precision))
         if self.element_writer:
             self.element_writer.write_frame(self.sim.time, self.sim.step_count)
         self.frame_index += 1
@@ -298,6 +305,8 @@ class Runner:
                 f"step {self.sim.step_count} (t = {self.sim.time:.6g}): the energies are "
                 f"not finite (kinetic {e['kinetic']:.3g}, internal {e['internal']:.3g}): "
                 f"a material value, load or velocity overflows double precision")
+        log = self.sim.force_log
+        forces = log.take_row(self.sim.time) if log else None
         self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
             self.config.gravity), self.world.sum(self.local_load_work))
         fault = self.watch.fault_line(self.sim.time)
@@ -310,6 +319,9 @@ class Runner:
                     for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
                              (e["kinetic"], e["internal"], e["total"]), rows)
+        if forces is not None:
+            if self.forces_writer:
+                self.forces_writer.row(self.sim.step_count, self.sim.time, forces)
         if self.probes:
             values = self.probes.sample(self.sim.particles)
             if self.probe_writer:
@@ -359,6 +371,8 @@ class Runner:
             self.history.close()
         if getattr(self, "probe_writer", None):
             self.probe_writer.close()
+        if getattr(self, "forces_writer", None):
+            self.forces_writer.close()
 
     def summary(self):
         sim = self.sim

@@ -16,6 +16,7 @@ from .energy import gravitational_potential, load_power
 from .errors import SetupError
 from .fem_bodies import FemBodies, build_meshes
 from .fem_grid import grid_coupled_nodes
+from .forces import ForceLog
 from .levels import Hierarchy
 from .node_contact import NodeContact, check_node_contact, node_contact_pairs
 from .observe import body_stats, energies
@@ -88,6 +89,8 @@ class Simulation:
                                      couplings, n_total, grid.h,
                                      [b.particles_per_cell for b in config.bodies]) \
             if converting else None
+        self.force_log = self.log_forces(config, couplings, m_tiny) \
+            if config.output.forces else None
         self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
                                make_scheme(config.time.scheme),
                                self.refiner, m_tiny, [elements] if elements else [], nodes,
@@ -95,6 +98,20 @@ class Simulation:
         self.decomposition.update_cell_ranges(self.kinds)
         self.loads = config.loads
         self.time, self.step_count = 0.0, 0
+
+    def log_forces(self, config, couplings, m_tiny):
+        """The force histories' log, last of the couplings (it reads their fields), and
+        told of by the surface couplings and the FEM bodies."""
+        grid_contact = next((c for c in couplings if isinstance(c, GridContact)), None)
+        log = ForceLog(config, self.world, self.bodies, m_tiny, grid_contact)
+        couplings.append(log)
+        for part in (self.surface, self.node_contact, self.elements):
+            if part is not None:
+                part.force_log = log
+        if self.elements is not None:
+            log.fem_supported = supported_fem_bodies(self.world, self.elements,
+                                                     len(self.bodies.names))
+        return log
 
     @property
     def particles(self):
@@ -178,6 +195,8 @@ class Simulation:
             sim.surface.deepest = scalars.get("surface_deepest", 0.0)
         if sim.node_contact:
             sim.node_contact.deepest = scalars.get("node_deepest", 0.0)
+        if sim.force_log:
+            sim.force_log.restore(scalars.get("forces"))
         for name in ("lost_count", "lost_mass"):
             if name in scalars:
                 getattr(sim.decomposition, name)[:] = scalars[name]
@@ -233,7 +252,8 @@ class Simulation:
                 "convert": self.conversion.state() if self.conversion else None,
                 "surface_deepest": self.surface.deepest_centre() if self.surface else 0.0,
                 "node_deepest": self.node_contact.deepest_node() if self.node_contact
-                else 0.0}
+                else 0.0,
+                "forces": self.force_log.state() if self.force_log else None}
 
     def checkpoint_groups(self):
         """The row sets a checkpoint keeps beside the particles (FEM bodies), or None."""
@@ -314,6 +334,14 @@ class Simulation:
             vec[i] = np.asarray(load.value, dtype=np.float64) * time_factor(
                 load.time_function, time)
         return vec
+
+
+def supported_fem_bodies(world, elements, n_bodies):
+    """The FEM bodies with constrained nodes (on any rank), in body order."""
+    held = np.zeros(n_bodies)
+    for b in np.unique(elements.node_body[elements.fixed.any(axis=1)]):
+        held[b] = 1.0
+    return [int(b) for b in np.flatnonzero(world.max(held))]
 
 
 def build_on_every_rank(world, build):

@@ -68,6 +68,7 @@ class Stepper:
         self.ask_kinds("scatter_mass_momentum")
         self.ask_couplings("after_scatter", self.grids, self.grid_kinds)
         self.grids.sum_shared("nodal")
+        self.ask_couplings("before_reflect", self.grids, "nodal")
         self.grids.reflect("nodal", NODAL_KINDS)
         self.ask_couplings("after_mass_sum", self.grids, self.grid_kinds)
 
@@ -107,6 +108,7 @@ class Stepper:
     def complete_forces(self):
         self.ask_couplings("after_forces", self.grids)
         self.grids.sum_shared("force")
+        self.ask_couplings("before_reflect", self.grids, "force")
         self.grids.reflect("force", FORCE_KINDS)
 
     def update_stresses(self, dt):

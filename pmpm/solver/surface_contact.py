@@ -131,6 +131,7 @@ class SurfaceContact(Coupling):
         local = max(local, 0.5 * float(spacing.max(initial=0.0)))
         self.reach = 2.0 * world.max(local)
         self.last_pairs, self.largest_penetration, self.deepest = 0, 0.0, 0.0
+        self.force_log = None          # pmpm.solver.forces.ForceLog, set by the simulation
         self.start_x = self.start_node_x = None
         self.refresh_faces()
 
@@ -226,6 +227,8 @@ class SurfaceContact(Coupling):
         self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
         if rigid is not None:
             rigid.take_impulses(self.elements, bodies, p.id[pair_p], impulses, dt)
+        if self.force_log is not None:
+            self.force_log.surface_pairs(p.body[pair_p], bodies, impulses, geo[:, 2:5])
         self.last_pairs = len(pair_p)
 
     def close_gaps(self, pair_p, geo, lift):

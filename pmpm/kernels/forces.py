@@ -1,0 +1,177 @@
+"""The impulses the grid's constraints and grid contact give the material in a step,
+for the force histories (``pmpm.solver.forces``).
+
+What a node gives the particles that reach it in a step is, over the particles,
+``m a dt + s (m v0 - p)``: ``m`` and ``p`` are the mass and momentum those particles
+put on the node (before any reflection across a plane of symmetry), ``a`` the node's
+acceleration and ``v0`` its start-of-step velocity, both after every correction, and
+``s`` the share of the start velocity the transfer passes on (0 under FLIP, ``time.pic``
+for a blend, 1 under APIC). Less the force ``f`` the particles' own stresses, gravity and
+loads put there, ``f dt``, what remains is the impulse of whatever else acted at the
+node: a face of the grid box (a fixed face, a slip face, a wall, a plane of symmetry),
+or, for one body at a contact node, the other bodies. Away from faces and contact the
+remainder is zero to round-off (``a = f / m``, ``v0 = p / m``).
+"""
+import numpy as np
+from numba import njit
+
+from .boundary import FIXED, SLIP, UPPER, constrain_coded
+
+#: the width of one pair's record: impulse (3), normal impulse (compression positive),
+#: tangential impulse (3)
+PAIR_WIDTH = 7
+#: the columns of the raw nodal rows kept for the face impulses: mass, momentum (3),
+#: rigid mass, force (3)
+RAW_WIDTH = 8
+
+
+@njit(cache=True)
+def face_zone(faces, pairs, counted, per_plane, nodes, face_of):
+    """The nodes whose impulse a face of the box may carry: nodes with a face code
+    (``faces``) and the nodes of the mirror ``pairs`` (beyond a plane of symmetry and
+    their images), on the planes this rank counts (``counted[n // per_plane]``), each
+    once. ``nodes`` and ``face_of`` (the mirror face, -1 for none) are filled; returns
+    how many."""
+    count = 0
+    mirror_face = np.full(faces.shape[0], -1, np.int64)
+    for k in range(pairs.shape[0]):
+        for j in range(2):
+            if mirror_face[pairs[k, j]] < 0:
+                mirror_face[pairs[k, j]] = pairs[k, 2]
+    for n in range(faces.shape[0]):
+        if (faces[n] or mirror_face[n] >= 0) and counted[n // per_plane]:
+            nodes[count] = n
+            face_of[count] = mirror_face[n]
+            count += 1
+    return count
+
+
+@njit(cache=True)
+def keep_rows(nodes, count, array, first, out):
+    """out[k, first:first + width] = array[nodes[k]] for the first ``count`` nodes."""
+    for k in range(count):
+        for c in range(array.shape[1]):
+            out[k, first + c] = array[nodes[k], c]
+
+
+@njit(cache=True, inline="always")
+def _face_of_component(code, g, block, d, mirror_face):
+    """The box face (2 axis + upper) that takes component d of a node's impulse (``g``:
+    the node's global index): the face of axis d the node lies on or beyond; else a
+    fixed face or a wall it lies on (their tangential pull); else the plane of symmetry
+    it mirrors across; else its first face. So the tangential parts of a mirrored group
+    of nodes (a node beyond a plane of symmetry and its image), which cancel, stay
+    together on one face, even at a corner of two planes."""
+    if g[d] <= 0 and block.boundary[2 * d] != 0:
+        return 2 * d
+    if g[d] >= block.n_cells[d] and block.boundary[2 * d + 1] != 0:
+        return 2 * d + 1
+    first = -1
+    for e in range(3):
+        kind = (code >> (2 * e)) & 3
+        if kind == FIXED or kind == SLIP:
+            face = 2 * e + ((code >> (UPPER + e)) & 1)
+            if kind == FIXED:
+                return face
+            if first < 0:
+                first = face
+    if mirror_face >= 0:
+        return mirror_face
+    return first
+
+
+@njit(cache=True)
+def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_tiny, out):
+    """Add each kept node's impulse from the faces (module docstring) to ``out`` (6, 3),
+    component by component to the face that takes it (:func:`_face_of_component`).
+    Nodes of rigid bodies (rigid mass > 0) and nodes without mass are left out: a rigid
+    body's push is not a face's. ``block``: the level's NodeBlock."""
+    g = np.empty(3, np.int64)
+    for k in range(count):
+        m = raw[k, 0]
+        if raw[k, 4] > 0.0 or m <= m_tiny:
+            continue
+        n = nodes[k]
+        for d in range(3):
+            g[d] = block.lo[d] + (n // block.strides[d]) % block.shape[d]
+        for d in range(3):
+            impulse = (m * gnew[n, 3 + d] - raw[k, 5 + d]) * dt
+            impulse += share * (m * gvel[n, d] - raw[k, 1 + d])
+            face = _face_of_component(block.faces[n], g, block, d, face_of[k])
+            if face >= 0:
+                out[face, d] += impulse
+
+
+@njit(cache=True, inline="always")
+def _heaviest_other(cnodal, s, b, m_tiny):
+    other, heaviest = -1, m_tiny
+    for c in range(cnodal.shape[1]):
+        if c != b and cnodal[s, c, 0] > heaviest:
+            other, heaviest = c, cnodal[s, c, 0]
+    return other
+
+
+@njit(cache=True)
+def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_plane, dt,
+                     m_tiny, out):
+    """Add to ``out[b, other]`` (n_bodies, n_bodies, :data:`PAIR_WIDTH`) the impulse grid
+    contact gave each deformable body b at the contact nodes this rank counts, against
+    the heaviest other body there (the one its correction was made against): the end
+    correction ``m (a - a_alone) dt`` (``a_alone`` the body's own force over its mass,
+    within the node's faces) and ``share[b]`` times method 2's start correction ``m (v0
+    - v_alone)``, with ``m`` the mass its particles put on the node (``real_mass``,
+    before any reflection). The normal part is taken along b's outward normal, counted
+    positive when it pushes b inward."""
+    cnodal, slot_nodes, cvel, cnorm, cforce, cnew = slots
+    imp, own = np.empty(3), np.empty(3)
+    for s in range(slot_nodes.shape[0]):
+        n = slot_nodes[s]
+        if not counted[n // per_plane]:
+            continue
+        for b in range(cnodal.shape[1]):
+            m, mr = cnodal[s, b, 0], real_mass[s, b]
+            if m <= m_tiny or mr <= 0.0 or body_rigid[b]:
+                continue
+            other = _heaviest_other(cnodal, s, b, m_tiny)
+            if other < 0:
+                continue
+            for d in range(3):
+                own[d] = cforce[s, b, d] / m
+            constrain_coded(own, codes[n])
+            for d in range(3):
+                imp[d] = mr * (cnew[s, b, 3 + d] - own[d]) * dt
+            if share[b] > 0.0:
+                for d in range(3):
+                    own[d] = cnodal[s, b, 1 + d] / m
+                constrain_coded(own, codes[n])
+                for d in range(3):
+                    imp[d] += share[b] * mr * (cvel[s, b, d] - own[d])
+            add_pair(out, b, other, imp, cnorm[s, b])
+
+
+@njit(cache=True, inline="always")
+def add_pair(out, b, other, imp, normal):
+    """out[b, other] += the impulse ``imp`` on b, its normal part along b's outward
+    ``normal`` (positive pushing inward) and its tangential rest."""
+    along = imp[0] * normal[0] + imp[1] * normal[1] + imp[2] * normal[2]
+    for d in range(3):
+        out[b, other, d] += imp[d]
+        out[b, other, 4 + d] += imp[d] - along * normal[d]
+    out[b, other, 3] -= along
+
+
+@njit(cache=True)
+def pair_impulses(first, second, impulses, normals, out):
+    """For surface and node-to-surface contact: pair k gave body ``first[k]`` the impulse
+    ``-impulses[k]`` and body ``second[k]`` ``+impulses[k]``; ``normals[k]`` is the
+    face's outward normal (the face belongs to ``second[k]``)."""
+    imp, normal = np.empty(3), np.empty(3)
+    for k in range(impulses.shape[0]):
+        for d in range(3):
+            imp[d] = -impulses[k, d]
+            normal[d] = -normals[k, d]          # the first body's outward normal
+        add_pair(out, first[k], second[k], imp, normal)
+        for d in range(3):
+            imp[d] = impulses[k, d]
+            normal[d] = normals[k, d]
+        add_pair(out, second[k], first[k], imp, normal)

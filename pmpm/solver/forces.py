@@ -1,0 +1,204 @@
+"""Force histories: the contact force between each pair of bodies and the reaction of
+each constrained face of the grid box and of each FEM body's constrained nodes
+(``forces.csv``, LS-DYNA's rcforc and bndout), as the mean force over the interval
+since the previous history row, so that a column integrated over the run is the exact
+impulse.
+
+The impulses are measured, not modelled: what a node gives the particles reaching it
+less the force of their own stresses, gravity and loads (``pmpm.kernels.forces``); for
+the surface couplings, the pair impulses themselves; for FE nodes, their velocity change
+less that of their forces. So a striker's contact force integrated over the impact is its
+momentum change, and a block at rest on a floor presses on it with its weight.
+
+Attribution rules worth knowing:
+
+* grid contact: a body's correction at a contact node counts against the heaviest other
+  body there (the one it was made against); a rigid body's force is the opposite of the
+  force on its partner;
+* faces: each component of a node's impulse goes to the face of that axis the node lies
+  on or beyond, else to a fixed face or wall it lies on, else to the plane of symmetry
+  it mirrors across (so the tangential parts of a mirrored group, which cancel, stay on
+  one face);
+* a face node that is also a contact node is counted with the shared field's motion, and
+  with refined windows the tied nodes that lie on a face are not counted: both are
+  approximations near such nodes only.
+"""
+import numpy as np
+
+from ..kernels import forces as kf
+from ..kernels.mpm import NODAL_COMPONENTS
+from .contact import start_shares
+from .couplings import Coupling
+
+FACE_NAMES = ("x-", "x+", "y-", "y+", "z-", "z+")
+
+
+class ForceLog(Coupling):
+    """Accumulates, over ranks and steps, the impulses between body pairs (``pair``:
+    n_bodies x n_bodies x kf.PAIR_WIDTH, on the first body from the second), on the
+    material from the box faces (``face``: 6 x 3) and on each FEM body from its
+    constrained nodes (``support``: n_bodies x 3) since the last history row.
+
+    It runs after the other couplings (it reads their end-of-step fields)."""
+
+    def __init__(self, config, world, bodies, m_tiny, grid_contact=None):
+        self.world, self.m_tiny = world, m_tiny
+        n = len(bodies.names)
+        self.names = list(bodies.names)
+        self.rigid = np.asarray(bodies.grid_rigid, bool)
+        self.share = 1.0 if config.time.transfer == "apic" else float(config.time.pic)
+        self.body_share = np.asarray(start_shares(config), np.float64)
+        self.grid_contact = grid_contact
+        self.faces = [f for f, name in enumerate(FACE_NAMES)
+                      if config.grid.boundary[name] != "free"]
+        self.fem_supported = []
+        self.pair = np.zeros((n, n, kf.PAIR_WIDTH))
+        self.face = np.zeros((6, 3))
+        self.support = np.zeros((n, 3))
+        self.since = 0.0                    # the time of the previous history row
+        self.zones = {}
+        self.zone_keys = {}
+
+    # -- the step's hooks ------------------------------------------------------------
+    def before_reflect(self, grids, what):
+        """Keep the raw mass and momentum (``what`` "nodal") or force ("force") of the
+        nodes a face may push, after the shared-plane sums and before the reflection."""
+        for s in grids:
+            if what == "nodal":
+                self.zones[s.index] = self.face_zone(s)
+            nodes, face_of, count, raw = self.zones[s.index]
+            if what == "nodal":
+                kf.keep_rows(nodes, count, s.nodal, 0, raw)
+            else:
+                kf.keep_rows(nodes, count, s.force, 5, raw)
+
+    def face_zone(self, s):
+        """The level's zone (:func:`pmpm.kernels.forces.face_zone`), kept while its block
+        stays the same (blocks are rebuilt every step, but seldom change)."""
+        b = s.block
+        key = (tuple(b.lo), tuple(b.shape), tuple(b.shared_planes), len(s.mirror))
+        kept = self.zone_keys.get(s.index)
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        zone = self.new_zone(s)
+        self.zone_keys[s.index] = (key, zone)
+        return zone
+
+    def new_zone(self, s):
+        b = s.block
+        n_nodes = b.n_nodes
+        nodes = np.empty(n_nodes, np.int64)
+        face_of = np.empty(n_nodes, np.int64)
+        if not self.faces:
+            return nodes, face_of, 0, np.zeros((0, kf.RAW_WIDTH))
+        per_plane, counted = counted_planes(b, self.world.rank)
+        count = kf.face_zone(s.nodes.faces, s.mirror, counted, per_plane, nodes, face_of)
+        return nodes, face_of, count, np.empty((count, kf.RAW_WIDTH))
+
+    def after_integrate(self, grids, dt):
+        for s in grids:
+            nodes, face_of, count, raw = self.zones[s.index]
+            if count:
+                kf.face_impulses(nodes, face_of, count, raw, s.gvel, s.gnew, s.nodes,
+                                 self.share, dt, self.m_tiny, self.face)
+            if self.grid_contact is not None:
+                f = self.grid_contact.fields[s.index]
+                if f.n_slots:
+                    per_plane, counted = counted_planes(s.block, self.world.rank)
+                    kf.contact_impulses(f.slots(), f.real_mass, self.body_share, self.rigid,
+                                        s.nodes.faces, counted, per_plane, dt, self.m_tiny,
+                                        self.pair)
+
+    # -- from the other couplings and the FEM bodies ---------------------------------
+    def surface_pairs(self, first, second, impulses, normals):
+        """Pair k gave body ``first[k]`` -impulses[k] and body ``second[k]`` (the owner
+        of the face with outward normal ``normals[k]``) +impulses[k]."""
+        if len(impulses):
+            kf.pair_impulses(np.asarray(first, np.int64), np.asarray(second, np.int64),
+                             np.ascontiguousarray(impulses, np.float64),
+                             np.ascontiguousarray(normals, np.float64), self.pair)
+
+    def node_reactions(self, body, on_support, impulses, face_of):
+        """FE nodes' impulses from their constraints (``on_support``, to their body) and
+        from the box faces (``face_of`` per component, -1: none)."""
+        np.add.at(self.support, body[on_support], impulses[on_support])
+        rest = ~on_support
+        for d in range(3):
+            faces = face_of[rest, d]
+            hit = faces >= 0
+            np.add.at(self.face[:, d], faces[hit], impulses[rest, d][hit])
+
+    # -- a history row ---------------------------------------------------------------
+    def take_row(self, time):
+        """The mean forces since the previous row (collective): a dict of column name ->
+        value, in the column order of :meth:`columns`; the accumulators restart."""
+        sums = self.world.sum(np.concatenate([self.pair.ravel(), self.face.ravel(),
+                                              self.support.ravel()]))
+        n = len(self.names)
+        pair = sums[:self.pair.size].reshape(self.pair.shape)
+        face = sums[self.pair.size:self.pair.size + 18].reshape(6, 3)
+        support = sums[self.pair.size + 18:].reshape(n, 3)
+        span = time - self.since
+        scale = 1.0 / span if span > 0.0 else 0.0
+        values = []
+        for a, b in self.pairs():
+            row = -pair[b, a] if self.rigid[a] else pair[a, b]
+            if self.rigid[a]:
+                row[3] = pair[b, a, 3]
+            values += [*row[:3], row[3], float(np.linalg.norm(row[4:7]))]
+        for f in self.faces:
+            values += list(face[f])
+        for b in self.fem_supported:
+            values += list(support[b])
+        self.pair[:] = 0.0
+        self.face[:] = 0.0
+        self.support[:] = 0.0
+        self.since = time
+        return [scale * v for v in values]
+
+    def pairs(self):
+        n = len(self.names)
+        return [(a, b) for a in range(n) for b in range(a + 1, n)
+                if not (self.rigid[a] and self.rigid[b])]
+
+    def columns(self):
+        cols = []
+        for a, b in self.pairs():
+            pair = f"{self.names[a]}/{self.names[b]}"
+            cols += [f"{pair}.{c}" for c in ("fx", "fy", "fz", "normal", "tangential")]
+        for f in self.faces:
+            cols += [f"{FACE_NAMES[f]}.{c}" for c in ("fx", "fy", "fz")]
+        for b in self.fem_supported:
+            cols += [f"{self.names[b]}.support.{c}" for c in ("fx", "fy", "fz")]
+        return cols
+
+    # -- restart ---------------------------------------------------------------------
+    def state(self):
+        """The impulses since the last row, summed over the ranks (collective), so that a
+        restart on any number of ranks continues the interval."""
+        return {"since": self.since, "pair": self.world.sum(self.pair).tolist(),
+                "face": self.world.sum(self.face).tolist(),
+                "support": self.world.sum(self.support).tolist()}
+
+    def restore(self, state):
+        """Rank 0 takes the saved sums, the others start from zero."""
+        if state:
+            self.since = state["since"]
+            if self.world.is_root:
+                self.pair[:] = state["pair"]
+                self.face[:] = state["face"]
+                self.support[:] = state["support"]
+
+
+def counted_planes(block, rank):
+    """(nodes per slab plane, bool per local plane): the planes this rank counts, all
+    but those it shares with the rank below (which counts them)."""
+    n_planes = int(block.shape[block.slab_axis])
+    counted = np.ones(max(n_planes, 1), np.bool_)
+    for neighbour, (first, stop) in block.shared_planes:
+        if neighbour < rank:
+            counted[first:stop] = False
+    return block.n_nodes // max(n_planes, 1), counted
+
+
+assert NODAL_COMPONENTS >= 5          # mass, momentum (3), rigid mass come first
