@@ -87,7 +87,7 @@ def kernel_cost(pairs, n=40, calls=5):
         for kind in times:
             state = MaterialState(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
                                   np.full(m, 5e-3), np.zeros(m), np.zeros(m), np.zeros(m),
-                                  np.zeros(m))
+                                  np.zeros(m), np.zeros(m), np.zeros(m))
             hg = Hourglass(np.array([kind], np.int64), np.array([0.05]), np.zeros((m, 12)),
                            np.zeros(m))
             force = np.zeros_like(x)

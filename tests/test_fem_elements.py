@@ -64,7 +64,8 @@ def materials(model=layout.ELASTIC):
 
 def one_element_state():
     return MaterialState(np.zeros((1, 6)), np.eye(3).reshape(1, 9).copy(), np.full(1, RHO),
-                         np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1))
+                         np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
+                         np.zeros(1))
 
 
 def run_element(xe, ve, kind=VISCOUS, dt=1e-6, coefficient=0.1, mat=None):

@@ -45,7 +45,8 @@ def materials(nu, q_linear=0.0):
 def kernel_forces(xe, v, nu, kind, coefficient, dt, q_linear=0.0):
     """(force, rate) of one call of element_forces on an element at rest in stress."""
     mat = MaterialState(np.zeros((1, 6)), np.eye(3).reshape(1, 9).copy(), np.full(1, RHO),
-                        np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1))
+                        np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
+                        np.zeros(1))
     hg = Hourglass(np.array([kind], np.int64), np.array([coefficient]), np.zeros((1, 12)),
                    np.zeros(1))
     mesh = ElementMesh(xe, v.reshape(8, 3).copy(), np.arange(8, dtype=np.int64)[None, :],

@@ -113,7 +113,7 @@ def test_internal_forces_of_uniform_stress_cancel_inside():
     code, row = pack({"model": "elastic", "rho": 1.0, "E": 1e3, "nu": 0.25})
     stress = np.tile([100.0, 50.0, 20.0, 10.0, 5.0, 2.0], (n, 1))
     F = np.tile(np.eye(3).ravel(), (n, 1))
-    zeros = [np.zeros(n) for _ in range(4)]                  # eps_p, e_int, temp, q
+    zeros = [np.zeros(n) for _ in range(6)]     # eps_p, e_int, temp, q, damage, w_p
     force = np.zeros((b.n_nodes, 3))
     points = PointState(x, np.zeros((n, 3)), np.full(n, d ** 3), np.zeros(n, np.int32),
                         np.zeros(n, np.int32))

@@ -69,9 +69,11 @@ class Particle:
         self.rho = np.array([self.prm[L.RHO0]])
         self.eps_p, self.e_int, self.q = np.zeros(1), np.zeros(1), np.zeros(1)
         self.temp = np.array([self.prm[L.T_ROOM] or 293.0])
+        self.damage, self.w_p = np.zeros(1), np.zeros(1)
 
     def columns(self):
-        return self.stress, self.F, self.rho, self.eps_p, self.e_int, self.temp, self.q
+        return (self.stress, self.F, self.rho, self.eps_p, self.e_int, self.temp, self.q,
+                self.damage, self.w_p)
 
     def step(self, Lg, dt, h=1.0):
         return update_stress(0, self.code, self.prm, dt, h, Lg, MaterialState(*self.columns()))

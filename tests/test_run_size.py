@@ -70,7 +70,8 @@ def test_output_beyond_the_free_disk_space_is_refused():
     config, size = bar_size()
     problems = size_problems(config, size, free_bytes=100_000)
     assert len(problems) == 1 and problems[0].startswith(
-        "output.frames: the run would write about 9"), problems
+        "output.frames: the run would write about "), problems
+    assert "(3 frames of 624 particles, checkpoints, history)" in problems[0]
     assert "but the output directory has 100 kB free" in problems[0]
 
 

@@ -8,7 +8,7 @@ from pmpm.particles import COLUMNS, MATERIAL_GROUP, ColumnStore, Particles, colu
 from pmpm.particles.store import IDENTITY9, empty_column
 
 OLD_ORDER = ["x", "v", "mass", "rho", "vol0", "stress", "F", "eps_p", "e_int", "temp", "q",
-             "load_scale", "id", "body", "load", "refine", "affine", "x0"]
+             "load_scale", "id", "body", "load", "refine", "affine", "x0", "damage", "w_p"]
 
 
 class Elements(ColumnStore):
@@ -86,7 +86,7 @@ def test_append_and_replace_column():
 
 
 def test_sizes():
-    per = 8 * (3 + 3 + 1 + 1 + 1 + 6 + 9 + 1 + 1 + 1 + 1 + 1 + 9 + 3) + 8 + 3 * 4
+    per = 8 * (3 + 3 + 1 + 1 + 1 + 6 + 9 + 1 + 1 + 1 + 1 + 1 + 9 + 3 + 2) + 8 + 3 * 4  # x0; damage, w_p
     assert Particles.bytes_per_particle() == per == Particles.bytes_per_row()
     assert Particles.empty(7).nbytes() == 7 * per
     assert Particles.row_dtype().itemsize >= per
@@ -107,7 +107,7 @@ def test_an_element_store_shares_the_material_group():
     assert e.nodes.shape == (3, 8) and e.material.F.shape == (3, 9)
     e.take([2, 1])
     assert e.material.stress[:, 0].tolist() == [200, 100] and e.nodes[0, 7] == 207
-    assert Elements.bytes_per_row() == 8 * 8 + 8 + 8 * (6 + 9 + 5)
+    assert Elements.bytes_per_row() == 8 * 8 + 8 + 8 * (6 + 9 + 7)
 
 
 def test_column_tables_are_checked():

@@ -347,10 +347,11 @@ class Tagged:
     tag: ClassVar[str] = "type"
 
     def __call__(self, raw, path, problems):
+        tag = self.tag
         if not is_mapping(raw, path, problems,
-                          f"a mapping with a 'type' ({', '.join(self.variants)})"):
+                          f"a mapping with a '{tag}' ({', '.join(self.variants)})"):
             return INVALID
-        kind = _read_field(raw.get("type"), join(path, "type"), self.type_field(), problems)
+        kind = _read_field(raw.get(tag), join(path, tag), self.type_field(), problems)
         if kind is INVALID:
             return INVALID
         return read_mapping(raw, path, self.fields_of(kind), problems)
@@ -360,13 +361,20 @@ class Tagged:
 
     def fields_of(self, kind):
         """The whole field table of a mapping of type ``kind``."""
-        return {"type": self.type_field(), **self.variants[kind], **self.common}
+        return {self.tag: self.type_field(), **self.variants[kind], **self.common}
 
     def variant_doc(self, kind):
         return self.docs.get(kind, "")
 
     def kind(self):
-        return "mapping with `type`"
+        return f"mapping with `{self.tag}`"
+
+
+@dataclass(frozen=True, eq=False)
+class TaggedByModel(Tagged):
+    """A :class:`Tagged` mapping whose ``model`` key (not ``type``) picks the variant,
+    as a material's does (e.g. a material's ``damage`` block)."""
+    tag: ClassVar[str] = "model"
 
 
 @dataclass(frozen=True, eq=False)

@@ -2,13 +2,15 @@
 
 The catalog (``pmpm.materials.catalog``) says which models exist, which parameters each
 takes and their defaults; this module adds the physical ranges and the rules on elastic
-constants (exactly two of E, nu, K, G), ``eos``, ``bulk_viscosity`` and ``eps_fail``.
+constants (exactly two of E, nu, K, G), ``eos``, ``bulk_viscosity``, ``eps_fail`` and
+``damage``.
 """
 from pmpm.materials import catalog
 
 from .errors import join
-from .fields import (INVALID, OMIT, REQUIRED, Field, NamedItems, Tagged, at_least, at_most,
-                     between, choice, greater, mapping, number, read_mapping, valid)
+from .fields import (INVALID, OMIT, REQUIRED, Field, NamedItems, Tagged, TaggedByModel,
+                     at_least, at_most, between, choice, greater, mapping, number,
+                     read_mapping, valid)
 
 # Physical range of each named parameter (catalog names); names not listed: any number.
 PARAM_CHECKS = {
@@ -20,7 +22,7 @@ PARAM_CHECKS = {
     "tangent_modulus": [at_least(0)], "viscosity": [at_least(0)],
     "tension_cutoff": [at_least(0)], "c0": [greater(0)], "s": [at_least(0)],
     "gamma0": [at_least(0)], "linear": [at_least(0)], "quadratic": [at_least(0)],
-    "eps_fail": [at_least(0)],
+    "eps_fail": [at_least(0)], "spall_pressure": [at_least(0)],
 }
 ELASTIC = {"E": ("MPa", "Young's modulus"), "nu": ("1", "Poisson's ratio"),     # unit, doc
            "K": ("MPa", "bulk modulus"), "G": ("MPa", "shear modulus")}
@@ -54,7 +56,23 @@ OPTIONAL_BLOCKS = {
                             doc="artificial bulk viscosity for shocks"),
 }
 EPS_FAIL = Field(number(*PARAM_CHECKS["eps_fail"]), OMIT, "1",
-                 "equivalent plastic strain at failure (0: never)")
+                 "equivalent plastic strain at failure (0: never); the failed point keeps "
+                 "no deviatoric stress but keeps its pressure, tension included (seed 001 "
+                 "Sec. 5.3)")
+DAMAGE = Field(TaggedByModel({name: _param_fields(params)
+                              for name, (_, params) in catalog.DAMAGE_MODELS.items()},
+                             "damage model", {},
+                             {"johnson_cook": "Johnson-Cook (1985) cumulative damage: D += "
+                              "d eps_p / eps_f per step (sigma* from the start-of-step "
+                              "pressure and the step's flow stress, the plastic strain "
+                              "rate of the step, T* of the start-of-step temperature); "
+                              "D >= 1 fails the point, which then keeps no deviatoric "
+                              "stress and no tension (pressure >= 0)"}),
+               OMIT, doc="damage and failure model (instead of eps_fail); the damage D "
+                         "is the particle and element column `damage`")
+#: damage constants that need a johnson_cook material's eps_dot0 or T_room, T_melt
+DAMAGE_NEEDS_JC = {"d4": "a reference strain rate (eps_dot0)",
+                   "d5": "a homologous temperature (T_room, T_melt)"}
 
 
 def read_material(raw, path, problems):
@@ -81,6 +99,7 @@ def material_fields(model):
         fields.update(OPTIONAL_BLOCKS)
     if model.plastic:
         fields["eps_fail"] = EPS_FAIL
+        fields["damage"] = DAMAGE
     return fields
 
 
@@ -117,6 +136,23 @@ def check_material(material, model, path, problems):
                      "from an equation of state: " + " or ".join(catalog.EOS_MODELS) + ")")
     if valid(material, "T_melt", "T_room") and material["T_melt"] <= material["T_room"]:
         problems.add(join(path, "T_melt"), f"must be > T_room = {material['T_room']:g}")
+    if valid(material, "damage"):
+        _check_damage(material, model, path, problems)
+
+
+def _check_damage(material, model, path, problems):
+    """A damage model replaces eps_fail, and its rate and temperature terms need the
+    johnson_cook model's eps_dot0 and T_room, T_melt."""
+    if material.get("eps_fail"):
+        problems.add(join(path, "damage"), "give either eps_fail or damage, not both "
+                     "(the damage model decides failure)")
+    if model.name == "johnson_cook":
+        return
+    for key, what in DAMAGE_NEEDS_JC.items():
+        if valid(material["damage"], key) and material["damage"][key] != 0:
+            problems.add(join(join(path, "damage"), key), f"must be 0 with model "
+                         f"{model.name!r}: it needs {what}, which only model "
+                         "'johnson_cook' has")
 
 
 def _check_elastic(material, model, path, problems):

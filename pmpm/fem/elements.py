@@ -77,7 +77,7 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
     FAILED_UPDATE).
     """
     x, v, hexes, body = mesh
-    stress, F, rho, eps_p, e_int, temp, q = mat
+    stress, F, rho, eps_p, e_int, temp, q, damage, w_p = mat
     codes, params, rigid = bodies
     hg_kind, hg_coefficient, resist, hg_energy = hourglass     # unpacked before the loop
     xe, ve, b = np.empty((8, 3)), np.empty((8, 3)), np.empty((8, 3))
@@ -108,7 +108,7 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
                 Lg[i, j] = s * inv_volume
         eps_old = eps_p[e]
         c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
-                                  eps_p, e_int, temp, q)
+                                  eps_p, e_int, temp, q, damage, w_p)
         if not c >= 0.0:
             if bad < 0:
                 bad, why = e, FAILED_UPDATE

@@ -15,7 +15,7 @@ File layout::
                                 (fem.convert): the frame's own connectivity, into its
                                 node rows; else /mesh's
         stress (m,6; attr components = "xx,yy,zz,xy,yz,zx") eps_p density e_int
-        centroid (m,3) hourglass_energy (m,)
+        damage (0 intact .. 1 failed) centroid (m,3) hourglass_energy (m,)
 
 Node rows are in ascending node id, element rows in ascending element id, whatever ranks
 hold them (pmpm.io._by_id): the file is the same, row for row, on any number of ranks.

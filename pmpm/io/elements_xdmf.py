@@ -1,14 +1,15 @@
 """XDMF 3 description of the FEM frames (``DIR/elements.xdmf``), so that ParaView opens
 elements.h5 as a time series of Hexahedron meshes: the connectivity ``/mesh/hexes``,
 the node positions of each frame as geometry, node velocities, and per element the six
-stress scalars (as in particles.xdmf), eps_p, density, e_int, the hourglass energy,
+stress scalars (as in particles.xdmf), eps_p, density, e_int, damage, the hourglass energy,
 the pressure and the von Mises stress (pmpm.io.derived)."""
 from xml.sax.saxutils import quoteattr
 
 from ._files import atomic_write_text
 from .xdmf import STRESS_SCALARS, _column_slab, _data_item
 
-CELL_SCALARS = ("eps_p", "density", "e_int", "hourglass_energy", "pressure", "von_mises")
+CELL_SCALARS = ("eps_p", "density", "e_int", "damage", "hourglass_energy", "pressure",
+                "von_mises")
 
 
 def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements, real="<f8"):

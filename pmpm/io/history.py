@@ -4,10 +4,13 @@ energies over time.
 Written by rank 0 only. Header::
 
     step,time,dt,kinetic,internal,total,NAME.x,NAME.y,NAME.z,NAME.vx,NAME.vy,NAME.vz,
-    NAME.kinetic,NAME.internal,...
+    NAME.kinetic,NAME.internal,NAME.plastic,...
 
 A body's internal energy includes its elements' hourglass energy, so that the bodies'
-energies add up to the totals.
+energies add up to the totals. ``NAME.plastic`` is the body's plastic work (the sum over
+its particles and elements of mass times the specific plastic work, sigma_y d eps_p /
+rho summed over the steps): the part of ``NAME.internal`` dissipated by plastic flow, not
+an energy of its own (do not add it to the totals).
 
 Each row is flushed as it is written, so ``tail -f history.csv`` follows a running case.
 Floats are written with ``repr`` (shortest exact round trip).
@@ -18,7 +21,7 @@ import numpy as np
 
 from ._files import atomic_write_text, resolve
 
-BODY_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "kinetic", "internal")
+BODY_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "kinetic", "internal", "plastic")
 ENERGY_FIELDS = ("kinetic", "internal", "total")
 
 
@@ -84,7 +87,8 @@ class HistoryWriter:
             Kinetic, internal and total energy (or a dict with those keys).
         body_rows : sequence or dict
             Per body (in ``body_names`` order, or a dict keyed by name) the values
-            x, y, z, vx, vy, vz (mass-weighted centroid and velocity), kinetic, internal.
+            x, y, z, vx, vy, vz (mass-weighted centroid and velocity), kinetic, internal,
+            plastic.
         """
         if isinstance(energies, dict):
             energies = [energies[key] for key in ENERGY_FIELDS]

@@ -234,7 +234,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     (-1 if none).
     """
     x, v, mass, body, level = pts
-    stress, F, rho, eps_p, e_int, temp, q = mat
+    stress, F, rho, eps_p, e_int, temp, q, damage, w_p = mat
     codes, params, rigid = bodies
     gravity, load_vec, load, load_scale = loads
     origin, inv_h, lo, strides, marker, half_width = geo
@@ -277,7 +277,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                         Lg[i, 1] += vi * gy[k]
                         Lg[i, 2] += vi * gz[k]
             c = update_stress_columns(p, codes[b], params[b], dt, h, Lg, stress, F, rho,
-                                      eps_p, e_int, temp, q)
+                                      eps_p, e_int, temp, q, damage, w_p)
             if c < 0.0 and bad < 0:
                 bad = p
             fastest = max(fastest, c + np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))

@@ -45,7 +45,8 @@ def warm_up(shape_code=LINEAR, apic=False):
     prm[0, [layout.RHO0, layout.E, layout.G, layout.K]] = 1.0
     bodies = BodyMaterials(np.zeros(1, np.int64), prm, rigid)
     mat = MaterialState(np.zeros((1, 6)), np.eye(3).reshape(1, 9).copy(), np.ones(1),
-                        np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1))
+                        np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
+                        np.zeros(1))
     loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(1, -1, np.int32), np.zeros(1))
     nodal = np.zeros((N, mpm.NODAL_COMPONENTS))
     gvel, force, gnew = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6))

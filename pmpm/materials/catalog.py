@@ -7,7 +7,8 @@ consistent system; the names below use the examples' mm, ms, g (stress in MPa).
 Elastic constants: give any two of ``E``, ``nu``, ``K``, ``G`` (solids). Optional blocks
 on any model but ``rigid``: ``eos`` (``{type: mie_gruneisen, c0, s, gamma0}`` or
 ``{type: linear, c0}``), ``bulk_viscosity`` (``{linear, quadratic}``), and on the
-plastic models ``eps_fail``.
+plastic models ``eps_fail`` (seed 001 Sec. 5.3) or a ``damage`` model
+(``{model: johnson_cook, d1, d2, d3, d4, d5, spall_pressure}``, :data:`DAMAGE_MODELS`).
 """
 from dataclasses import dataclass, field
 
@@ -85,6 +86,24 @@ EOS_MODELS = {
         "c0": Param(L.EOS_C0, "mm/ms", "sound speed: p = rho0 c0^2 (rho/rho0 - 1)"),
     }),
 }
+DAMAGE_MODELS = {
+    "johnson_cook": (L.DAMAGE_JOHNSON_COOK, {
+        "d1": Param(L.D1, "-", "fracture strain constant D1 of eps_f = [D1 + D2 exp(D3 "
+                    "sigma*)][1 + D4 ln max(eps_dot_p/eps_dot0, 1)][1 + D5 T*]"),
+        "d2": Param(L.D2, "-", "fracture strain constant D2 (factor of exp(D3 sigma*))"),
+        "d3": Param(L.D3, "-", "fracture strain constant D3, the triaxiality exponent; "
+                    "sigma* = -p / sigma_vm with p the pressure (positive in compression), "
+                    "so sigma* > 0 in tension (usually D3 < 0)"),
+        "d4": Param(L.D4, "-", "fracture strain constant D4, the strain-rate term "
+                    "(rate over the material's eps_dot0; johnson_cook models only)", 0.0),
+        "d5": Param(L.D5, "-", "fracture strain constant D5, the temperature term "
+                    "(homologous T* of the material's T_room, T_melt; johnson_cook models "
+                    "only)", 0.0),
+        "spall_pressure": Param(L.SPALL, "MPa", "spall cut-off: a tension (negative "
+                                "pressure) beyond -spall_pressure fails the point "
+                                "(0: none)", 0.0),
+    }),
+}
 BULK_VISCOSITY = {
     "linear": Param(L.Q_LINEAR, "-", "linear coefficient", 0.0),
     "quadratic": Param(L.Q_QUADRATIC, "-", "quadratic coefficient", 0.0),
@@ -133,6 +152,12 @@ def pack(material):
     for name, p in BULK_VISCOSITY.items():
         row[p.slot] = (material.get("bulk_viscosity") or {}).get(name, p.default)
     row[L.EPS_FAIL] = material.get("eps_fail", 0.0) or 0.0
+    damage = material.get("damage")
+    if damage:
+        code, params = DAMAGE_MODELS[damage["model"]]
+        row[L.DAMAGE] = code
+        for name, p in params.items():
+            row[p.slot] = damage.get(name, p.default)
     return model.code, row
 
 

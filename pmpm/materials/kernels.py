@@ -8,12 +8,15 @@ One step of a particle, in order:
 
 1. density ``rho <- rho / (1 + tr(D) dt)`` (seed 001 Eq. 30) and ``F <- (I + Lg dt) F``;
 2. deviatoric stress of the model: hypoelastic Jaumann update (elastic, J2, Johnson-Cook,
-   with a radial return for the plastic ones), Neo-Hookean from F, or fluid viscosity;
+   with a radial return for the plastic ones, which also sum the plastic work and the
+   damage), Neo-Hookean from F, or fluid viscosity;
 3. artificial bulk viscosity ``q`` from the volumetric rate;
 4. pressure and specific internal energy together: hypoelastic ``p - K tr(de)`` (or the
    Neo-Hookean pressure) with an explicit energy update, or an EOS, for which the energy
    equation is solved in closed form; the work is the trapezoid over the step's exact
    change of specific volume;
+   with a damage model, a failed point (damage 1, or a pressure below the spall cut-off)
+   then loses its deviator and its tension (:func:`damaged_failure`);
 5. the wave speed for the CFL condition, or -1.0 if anything is not finite (Neo-Hookean:
    the stiffer of the small-strain speed and :func:`neo_hookean_wave_speed` at the new F).
 
@@ -52,10 +55,11 @@ import math
 from numba import njit
 
 from .eos import bulk_viscosity, eos_at_density, mie_gruneisen_pressure
-from .layout import (A, B, C, CHI, CP, EOS_C0, EOS_GAMMA0, EOS_NONE, EOS_S, EOS_TYPE,
-                     EPS_DOT0, EPS_FAIL, FLUID, G, J2_PLASTIC, JOHNSON_COOK, K, M, N, N_SLOTS,
-                     NEO_HOOKEAN, Q_LINEAR, Q_QUADRATIC, RHO0, RIGID, T_MELT, T_ROOM,
-                     TENSION_CUTOFF, VISCOSITY)
+from .layout import (A, B, C, CHI, CP, D1, D2, D3, D4, D5, DAMAGE, DAMAGE_NONE, EOS_C0,
+                     EOS_GAMMA0, EOS_NONE, EOS_S, EOS_TYPE, EPS_DOT0, EPS_FAIL, FLUID, G,
+                     J2_PLASTIC, JOHNSON_COOK, K, M, N, N_SLOTS, NEO_HOOKEAN, Q_LINEAR,
+                     Q_QUADRATIC, RHO0, RIGID, SPALL, T_MELT, T_ROOM, TENSION_CUTOFF,
+                     VISCOSITY)
 from .plasticity import plastic_increment, thermal_factor
 from .tensors import (add, all_finite, determinant9, deviator, double_dot, fdiv,
                       jaumann_rotate, left_cauchy_green, scale,
@@ -65,8 +69,8 @@ __all__ = ["update_stress", "wave_speed", "bulk_viscosity", "mie_gruneisen_press
            "jaumann_rotate", "deviator", "neo_hookean_stress", "neo_hookean_wave_speed"]
 
 ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-if N_SLOTS != 24:
-    raise ImportError("update_stress reads a parameter row of 24 slots: update it with layout")
+if N_SLOTS != 31:
+    raise ImportError("update_stress reads a parameter row of 31 slots: update it with layout")
 
 
 @njit(cache=True, forceinline=True)
@@ -156,9 +160,64 @@ def has_failed(eps_p, eps_fail):
 
 
 @njit(cache=True, forceinline=True)
-def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, t_room,
-                 t_melt, cp, chi, eps_fail):
-    """Return map, plastic strain, adiabatic heating and failure of one particle.
+def fracture_strain(triax, rate_ratio, t_star, d1, d2, d3, d4, d5):
+    """Johnson-Cook (1985) equivalent plastic strain at fracture.
+
+    ``eps_f = [d1 + d2 exp(d3 triax)] [1 + d4 ln max(rate_ratio, 1)] [1 + d5 t_star]``
+    with ``triax`` the stress triaxiality (mean stress over von Mises stress, tension
+    positive), ``rate_ratio`` the plastic strain rate over the reference rate and
+    ``t_star`` the homologous temperature. The exponent is capped at 700 (exp stays
+    finite); a factor whose constant is 0 is not evaluated.
+    """
+    eps_f = d1 + d2 * math.exp(min(d3 * triax, 700.0))
+    if d4 != 0.0 and rate_ratio > 1.0:
+        eps_f *= 1.0 + d4 * math.log(rate_ratio)
+    if d5 != 0.0:
+        eps_f *= 1.0 + d5 * t_star
+    return eps_f
+
+
+@njit(cache=True, forceinline=True)
+def homologous_temperature(temp, t_room, t_melt):
+    """``T* = (T - T_room)/(T_melt - T_room)`` clipped to [0, 1], as the Johnson-Cook
+    strength's (:func:`pmpm.materials.plasticity.thermal_factor`); 0 when
+    ``T_melt <= T_room`` (a row without temperatures)."""
+    if t_melt <= t_room:
+        return 0.0
+    return min(max(fdiv(temp - t_room, t_melt - t_room), 0.0), 1.0)
+
+
+@njit(cache=True, forceinline=True)
+def damage_after(dam0, eps1, dlam, dt, p_old, sigma_y, temp0, prm):
+    """The damage at the end of a step with plastic increment ``dlam``, at most 1.
+
+    With a Johnson-Cook damage model (slot ``DAMAGE``): ``D = D0 + dlam / eps_f``
+    (:func:`fracture_strain`) at the triaxiality ``-p_old / sigma_y`` (the start-of-step
+    pressure over the step's flow stress, which is the von Mises stress of the returned
+    deviator), the rate ``dlam / dt`` over the row's ``EPS_DOT0`` and ``T*`` of the
+    start-of-step temperature; ``eps_f <= 0`` fails the point at once. Without one but with
+    ``eps_fail``: ``eps_p / eps_fail`` (1 exactly when :func:`has_failed`). Else 0.
+    """
+    if prm[DAMAGE] != DAMAGE_NONE:
+        if not dlam > 0.0:
+            return dam0
+        triax = fdiv(-p_old, sigma_y) if sigma_y > 0.0 else 0.0
+        rate_ratio = fdiv(dlam, dt * prm[EPS_DOT0]) if prm[EPS_DOT0] > 0.0 else 0.0
+        t_star = homologous_temperature(temp0, prm[T_ROOM], prm[T_MELT])
+        eps_f = fracture_strain(triax, rate_ratio, t_star, prm[D1], prm[D2], prm[D3],
+                                prm[D4], prm[D5])
+        if not eps_f > 0.0:
+            return 1.0
+        return min(dam0 + fdiv(dlam, eps_f), 1.0)
+    if prm[EPS_FAIL] > 0.0:
+        return min(fdiv(eps1, prm[EPS_FAIL]), 1.0)
+    return dam0
+
+
+@njit(cache=True, forceinline=True)
+def plastic_step(s_trial, g, eps0, temp0, dam0, wp0, dt, rho_mid, p_old, prm):
+    """Return map, plastic strain, adiabatic heating, plastic work, damage and failure of
+    one particle.
 
     Parameters
     ----------
@@ -166,12 +225,13 @@ def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, 
         Elastic trial deviator.
     g : float
         Shear modulus.
-    eps0, temp0 : float
-        Plastic strain and temperature at the start of the step.
-    dt, rho_mid : float
-        Time step, mid-step density.
-    a, b, n, c, eps_dot0, m, t_room, t_melt, cp, chi, eps_fail : float
-        The row's plastic constants (``pmpm.materials.layout`` slots of the same names).
+    eps0, temp0, dam0, wp0 : float
+        Plastic strain, temperature, damage and specific plastic work at the start of
+        the step.
+    dt, rho_mid, p_old : float
+        Time step, mid-step density, start-of-step pressure (the damage's triaxiality).
+    prm : tuple of N_SLOTS float
+        The packed row (its plastic, failure and damage slots).
 
     Returns
     -------
@@ -180,36 +240,43 @@ def plastic_step(s_trial, g, eps0, temp0, dt, rho_mid, a, b, n, c, eps_dot0, m, 
     factor : float
         1 for an elastic step, ``sigma_y / q_trial`` for a plastic one, 0 for a failed
         particle.
-    eps1, temp1 : float
-        Plastic strain and temperature at the end of the step.
+    eps1, temp1, dam1, wp1 : float
+        Plastic strain, temperature, damage and specific plastic work at the end of the
+        step.
     converged : bool
         False when the return map failed.
 
     Notes
     -----
-    A failed particle (seed 001 Sec. 5.3) carries no deviatoric stress and its plastic
-    strain no longer grows; a particle that reaches ``eps_fail`` during the step loses its
-    deviator at the end of the step. Heating ``dT = chi sigma_y dlam / (rho cp)`` is applied
-    when ``cp > 0`` (seed 001 Eq. 39 with the Taylor-Quinney factor chi). The thermal
-    factor uses the start-of-step temperature. Linear hardening without rate term takes
-    the closed form of :func:`pmpm.materials.plasticity.plastic_increment`: one square
-    root (the von Mises stress), no other transcendental call.
+    A failed particle (seed 001 Sec. 5.3: ``eps_p >= eps_fail``; or damage ``D >= 1``)
+    carries no deviatoric stress and its plastic strain no longer grows; a particle that
+    fails during the step loses its deviator at the end of the step (a damage model's
+    failed point also loses its tension: :func:`material_step`). Heating
+    ``dT = chi sigma_y dlam / (rho cp)`` is applied when ``cp > 0`` (seed 001 Eq. 39 with
+    the Taylor-Quinney factor chi); the plastic work per mass ``sigma_y dlam / rho`` is
+    summed in any case. The thermal factor uses the start-of-step temperature. Linear
+    hardening without rate term takes the closed form of
+    :func:`pmpm.materials.plasticity.plastic_increment`: one square root (the von Mises
+    stress), no other transcendental call.
     """
-    if has_failed(eps0, eps_fail):
-        return ZERO6, 0.0, eps0, temp0, True
-    theta = thermal_factor(m, temp0, t_room, t_melt)
+    eps_fail = prm[EPS_FAIL]
+    if has_failed(eps0, eps_fail) or dam0 >= 1.0:
+        return ZERO6, 0.0, eps0, temp0, dam0, wp0, True
+    theta = thermal_factor(prm[M], temp0, prm[T_ROOM], prm[T_MELT])
     q_trial = von_mises(s_trial)
-    dlam, sigma_y, ratio, ok = plastic_increment(q_trial, g, eps0, dt, a, b, n, c, eps_dot0,
-                                                 theta)
+    dlam, sigma_y, ratio, ok = plastic_increment(q_trial, g, eps0, dt, prm[A], prm[B],
+                                                 prm[N], prm[C], prm[EPS_DOT0], theta)
     eps1 = eps0 + dlam
     temp1 = temp0
-    if cp > 0.0:
-        temp1 = temp0 + fdiv(chi * sigma_y * dlam, rho_mid * cp)
-    if has_failed(eps1, eps_fail):
-        return ZERO6, 0.0, eps1, temp1, ok
+    if prm[CP] > 0.0:       # (chi sigma_y) dlam: the order of the products of before
+        temp1 = temp0 + fdiv(prm[CHI] * sigma_y * dlam, rho_mid * prm[CP])
+    wp1 = wp0 + fdiv(sigma_y * dlam, rho_mid)
+    dam1 = damage_after(dam0, eps1, dlam, dt, p_old, sigma_y, temp0, prm)
+    if has_failed(eps1, eps_fail) or dam1 >= 1.0:
+        return ZERO6, 0.0, eps1, temp1, dam1, wp1, ok
     if q_trial <= sigma_y:
-        return s_trial, 1.0, eps1, temp1, ok
-    return scale(s_trial, ratio), ratio, eps1, temp1, ok
+        return s_trial, 1.0, eps1, temp1, dam1, wp1, ok
+    return scale(s_trial, ratio), ratio, eps1, temp1, dam1, wp1, ok
 
 
 @njit(cache=True, forceinline=True)
@@ -311,8 +378,41 @@ def wave_speed(code, prm, rho, pressure):
 
 
 @njit(cache=True, forceinline=True)
+def damaged_failure(s_new, p_new, e_new, dam1, factor, w_rot, spall, e_old, p_old, q, dvs,
+                    v_mid):
+    """Failure of a point of a material with a damage model, at the end of its step.
+
+    A point fails when its damage reaches 1 or, with ``spall > 0``, when its pressure
+    falls below ``-spall`` (the spall cut-off). A failed point keeps no deviatoric stress
+    (one that fails by spall now loses the deviator of this step: the deviatoric work is
+    then the trapezoid ``s_rot : de / 2``, ``w_rot`` = ``s_rot : de``) and no tension
+    (pressure at least 0); the energy is then that of the clamped pressure
+    (:func:`energy_known_pressure`), as for the fluid's tension cut-off.
+
+    Returns
+    -------
+    s_new, p_new, e_new, dam1
+        The end-of-step deviator, pressure, specific energy and damage (1 when failed).
+    """
+    spalled = spall > 0.0 and p_new < -spall
+    if not (dam1 >= 1.0 or spalled):
+        return s_new, p_new, e_new, dam1
+    changed = False
+    work_dev = 0.5 * w_rot
+    if factor != 0.0:
+        s_new = ZERO6
+        changed = True
+    if p_new < 0.0:
+        p_new = 0.0
+        changed = True
+    if changed:
+        e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q, dvs, v_mid)
+    return s_new, p_new, e_new, 1.0
+
+
+@njit(cache=True, forceinline=True)
 def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old, temp_old,
-                  q_old):
+                  q_old, dam_old, wp_old):
     """One particle's constitutive step on values (the arithmetic of :func:`update_stress`).
 
     Parameters
@@ -329,28 +429,28 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
         Stress at the start of the step.
     f_old : tuple of 9 float
         Deformation gradient at the start of the step, row-major.
-    rho_old, eps_old, e_old, temp_old, q_old : float
-        Density, plastic strain, specific energy, temperature and bulk viscosity at the
-        start of the step.
+    rho_old, eps_old, e_old, temp_old, q_old, dam_old, wp_old : float
+        Density, plastic strain, specific energy, temperature, bulk viscosity, damage and
+        specific plastic work at the start of the step.
 
     Returns
     -------
     tuple
-        ``(c, stress, F, rho, eps_p, e_int, temp, q)``: the return value of
+        ``(c, stress, F, rho, eps_p, e_int, temp, q, damage, w_p)``: the return value of
         :func:`update_stress` and the values to store. A failed or rigid update returns the
-        old values, except that ``eps_p`` and ``temp`` are those of the return map whenever
-        it ran.
+        old values, except that ``eps_p``, ``temp``, ``damage`` and ``w_p`` are those of
+        the return map whenever it ran.
     """
     if code == RIGID:
-        return 0.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old
+        return 0.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old, dam_old, wp_old
     d = sym9(lg)
     div = trace(d)
     dv = div * dt
     if not 1.0 + dv > 0.0:
-        return -1.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old
+        return -1.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old, dam_old, wp_old
     rho_new = fdiv(rho_old, 1.0 + dv)
     if not (rho_new > 0.0 and math.isfinite(rho_new)):
-        return -1.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old
+        return -1.0, sig_old, f_old, rho_old, eps_old, e_old, temp_old, q_old, dam_old, wp_old
     rho_mid = 0.5 * (rho_old + rho_new)
     # specific volume: its exact change over the step (rho_new = rho_old / (1 + dv)) and
     # its mean, for the energy equation
@@ -366,6 +466,10 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
     converged = True
     eps1 = eps_old
     temp1 = temp_old
+    dam1 = dam_old
+    wp1 = wp_old
+    w_rot = 0.0
+    factor = 1.0
     if code == NEO_HOOKEAN:
         s_new, p_new = neo_hookean_stress(advance_deformation_gradient(f_old, lg, dt), g,
                                           k_bulk)
@@ -382,10 +486,8 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
             # before the return map ends (equal to the elastic form up to round-off)
             w_rot = double_dot(s_rot, de)
             w_trial = double_dot(s_new, de)
-            s_new, factor, eps1, temp1, converged = plastic_step(
-                s_new, g, eps_old, temp_old, dt, rho_mid, prm[A], prm[B], prm[N], prm[C],
-                prm[EPS_DOT0], prm[M], prm[T_ROOM], prm[T_MELT], prm[CP], prm[CHI],
-                prm[EPS_FAIL])
+            s_new, factor, eps1, temp1, dam1, wp1, converged = plastic_step(
+                s_new, g, eps_old, temp_old, dam_old, wp_old, dt, rho_mid, p_old, prm)
             work_dev = 0.5 * (w_rot + factor * w_trial)
         else:
             work_dev = double_dot(scale(add(s_rot, s_new), 0.5), de)
@@ -416,6 +518,10 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
     if code == FLUID and p_new < -prm[TENSION_CUTOFF]:
         p_new = -prm[TENSION_CUTOFF]
         e_new = energy_known_pressure(e_old, work_dev, p_old, p_new, q_new, dvs, v_mid)
+    if prm[DAMAGE] != DAMAGE_NONE:
+        s_new, p_new, e_new, dam1 = damaged_failure(s_new, p_new, e_new, dam1, factor, w_rot,
+                                                    prm[SPALL], e_old, p_old, q_new, dvs,
+                                                    v_mid)
     if has_eos:
         c = speed_from_inverse(bulk_stiffness(code, k_bulk, True, kt0, kt1, p_new, rho_new, c0),
                                g43, inv_rho)
@@ -428,11 +534,11 @@ def material_step(code, prm, dt, h, lg, sig_old, f_old, rho_old, eps_old, e_old,
                                           k_bulk, rho_new))
     if not (converged and all_finite(s_new) and math.isfinite(p_new) and math.isfinite(e_new)
             and math.isfinite(c)):
-        return -1.0, sig_old, f_old, rho_old, eps1, e_old, temp1, q_old
+        return -1.0, sig_old, f_old, rho_old, eps1, e_old, temp1, q_old, dam1, wp1
     sig_new = (s_new[0] - p_new, s_new[1] - p_new, s_new[2] - p_new, s_new[3], s_new[4],
                s_new[5])
     return (c, sig_new, advance_deformation_gradient(f_old, lg, dt), rho_new, eps1, e_new,
-            temp1, q_new)
+            temp1, q_new, dam1, wp1)
 
 
 @njit(cache=True, forceinline=True)
@@ -455,7 +561,7 @@ def update_stress(p, code, prm, dt, h, Lg, mat):
         Velocity gradient at the particle, ``Lg[i, j] = dv_i/dx_j``.
     mat : MaterialState
         The material columns (``pmpm.materials.state``: stress, F, rho, eps_p, e_int,
-        temp, q), updated in place at row ``p``.
+        temp, q, damage, w_p), updated in place at row ``p``.
 
     Returns
     -------
@@ -474,7 +580,9 @@ def update_stress(p, code, prm, dt, h, Lg, mat):
     * elastic: ``sigma <- sigma + (W sigma - sigma W) dt + lambda dv I + 2 G de``, written
       as a deviator ``s_rot + 2G dev(de)`` plus a pressure ``p - K dv``.
     * j2 / johnson_cook: the same trial deviator, then a radial return
-      (:func:`pmpm.materials.plasticity.return_map`), heating, failure.
+      (:func:`pmpm.materials.plasticity.return_map`), heating, plastic work, damage and
+      failure (:func:`plastic_step`; with a damage model also the spall cut-off and no
+      tension once failed, :func:`damaged_failure`).
     * neo_hookean: stress from ``F`` after ``F <- (I + Lg dt) F``.
     * fluid: deviator ``2 eta dev(D)``; pressure from the EOS, limited to
       ``p >= -tension_cutoff``.
@@ -493,24 +601,28 @@ def update_stress(p, code, prm, dt, h, Lg, mat):
     back the values it read.
     """
     return update_stress_columns(p, code, prm, dt, h, Lg, mat.stress, mat.F, mat.rho,
-                                 mat.eps_p, mat.e_int, mat.temp, mat.q)
+                                 mat.eps_p, mat.e_int, mat.temp, mat.q, mat.damage,
+                                 mat.w_p)
 
 
 @njit(cache=True, forceinline=True)
-def update_stress_columns(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q):
+def update_stress_columns(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int, temp, q,
+                          damage, w_p):
     """:func:`update_stress` on the material columns themselves (the particle loops
     unpack the record once, outside the loop)."""
     prm_t = (prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8],
              prm[9], prm[10], prm[11], prm[12], prm[13], prm[14], prm[15], prm[16],
-             prm[17], prm[18], prm[19], prm[20], prm[21], prm[22], prm[23])
+             prm[17], prm[18], prm[19], prm[20], prm[21], prm[22], prm[23], prm[24],
+             prm[25], prm[26], prm[27], prm[28], prm[29], prm[30])
     lg = (Lg[0, 0], Lg[0, 1], Lg[0, 2], Lg[1, 0], Lg[1, 1], Lg[1, 2],
           Lg[2, 0], Lg[2, 1], Lg[2, 2])
     sig_old = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
                stress[p, 5])
     f_old = (F[p, 0], F[p, 1], F[p, 2], F[p, 3], F[p, 4], F[p, 5], F[p, 6], F[p, 7],
              F[p, 8])
-    c, sig, f, rho_new, eps_new, e_new, temp_new, q_new = material_step(
-        code, prm_t, dt, h, lg, sig_old, f_old, rho[p], eps_p[p], e_int[p], temp[p], q[p])
+    c, sig, f, rho_new, eps_new, e_new, temp_new, q_new, dam_new, wp_new = material_step(
+        code, prm_t, dt, h, lg, sig_old, f_old, rho[p], eps_p[p], e_int[p], temp[p], q[p],
+        damage[p], w_p[p])
     stress[p, 0], stress[p, 1], stress[p, 2] = sig[0], sig[1], sig[2]
     stress[p, 3], stress[p, 4], stress[p, 5] = sig[3], sig[4], sig[5]
     F[p, 0], F[p, 1], F[p, 2] = f[0], f[1], f[2]
@@ -521,4 +633,6 @@ def update_stress_columns(p, code, prm, dt, h, Lg, stress, F, rho, eps_p, e_int,
     e_int[p] = e_new
     temp[p] = temp_new
     q[p] = q_new
+    damage[p] = dam_new
+    w_p[p] = wp_new
     return c

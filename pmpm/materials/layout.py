@@ -19,6 +19,10 @@ EOS_NONE = 0            # hypoelastic pressure from the bulk modulus K
 EOS_MIE_GRUNEISEN = 1   # seed 001 Eq. 38
 EOS_LINEAR = 2          # p = rho0 c0^2 mu (mu = rho/rho0 - 1); "incompressible" water of seed 004 Sec. 4.4
 
+# damage model codes (slot DAMAGE)
+DAMAGE_NONE = 0         # no damage model (eps_fail, if set, is the only failure)
+DAMAGE_JOHNSON_COOK = 1 # D += d eps_p / eps_f(triaxiality, rate, T*), fails at D = 1
+
 # slots
 RHO0 = 0
 E = 1
@@ -44,4 +48,11 @@ Q_LINEAR = 20           # artificial bulk viscosity, linear coefficient
 Q_QUADRATIC = 21        # artificial bulk viscosity, quadratic coefficient
 VISCOSITY = 22          # dynamic viscosity of a fluid (stress * time)
 TENSION_CUTOFF = 23     # largest tension (positive number) a fluid sustains
-N_SLOTS = 24
+DAMAGE = 24             # damage model code (DAMAGE_NONE, DAMAGE_JOHNSON_COOK)
+D1 = 25                 # Johnson-Cook fracture strain constants D1..D5
+D2 = 26
+D3 = 27
+D4 = 28
+D5 = 29
+SPALL = 30              # spall pressure: a tension beyond it fails the point (0: none)
+N_SLOTS = 31

@@ -6,12 +6,15 @@ permuted together when particles are re-sorted by cell.
 """
 import numpy as np
 
+from pmpm.materials.state import with_later_columns
+
 from .columns import MATERIAL_GROUP, ColumnStore, column_table
 
 F8, I8, I4 = np.float64, np.int64, np.int32
 
 #: name -> (dtype, components per particle), in checkpoint and output order; the bare
-#: names are the material group's columns; see docs/CONTRACTS.md
+#: names are the material group's columns, and the group's columns not named here
+#: (damage, w_p) follow at the end; see docs/CONTRACTS.md
 COLUMNS = column_table(
     [("x", F8, 3), ("v", F8, 3), ("mass", F8, 1), "rho", ("vol0", F8, 1), "stress", "F",
      "eps_p", "e_int", "temp", "q", ("load_scale", F8, 1), ("id", I8, 1),
@@ -37,6 +40,8 @@ class Particles(ColumnStore):
             columns = dict(columns, affine=np.zeros((len(columns["mass"]), 9)))
         if "x0" not in columns and "x" in columns:   # checkpoints before displacements
             columns = dict(columns, x0=np.array(columns["x"], np.float64))
+        if "mass" in columns:                                # checkpoints before damage
+            columns = with_later_columns(columns, len(columns["mass"]))
         super().__init__(columns)
 
     @classmethod

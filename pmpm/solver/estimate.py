@@ -8,12 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..case.contact import describe_contact
+from ..io.history import BODY_FIELDS
 from ..particles import COLUMNS
 from .bodies import BodyTable, initial_field
 from .errors import SetupError
 
 #: Columns of a particle frame (run.Runner.write_frame), as named in the store.
-FRAME_COLUMNS = ("x", "v", "stress", "eps_p", "rho", "mass", "body", "id", "temp", "e_int")
+FRAME_COLUMNS = ("x", "v", "stress", "eps_p", "rho", "mass", "body", "id", "temp", "e_int",
+                 "damage")
 #: Bytes of the derived columns of a particle or element frame (pressure, von Mises).
 DERIVED_BYTES = 16
 #: Checkpoints on disk at once: the two kept and the one being written.
@@ -23,10 +25,11 @@ STEP_SLACK = 1e-9
 #: Bytes of one number in history.csv (a repr-formatted float and its comma).
 HISTORY_NUMBER_BYTES = 24
 #: Bytes of an element and of a node in a frame of elements.h5 (pmpm.io.elements_h5:
-#: id, stress, eps_p, density, e_int, centroid, hourglass energy; id, x, v) and in a
-#: checkpoint (the same with the connectivity, the reference positions and the state).
-ELEMENT_FRAME_BYTES, NODE_FRAME_BYTES = 112 + DERIVED_BYTES, 56
-ELEMENT_CHECKPOINT_BYTES, NODE_CHECKPOINT_BYTES = 200, 100
+#: id, stress, eps_p, density, e_int, damage, centroid, hourglass energy; id, x, v) and
+#: in a checkpoint (the same with the connectivity, the reference positions and the
+#: state, plastic work included).
+ELEMENT_FRAME_BYTES, NODE_FRAME_BYTES = 120 + DERIVED_BYTES, 56
+ELEMENT_CHECKPOINT_BYTES, NODE_CHECKPOINT_BYTES = 216, 100
 
 
 def bytes_per_particle(names):
@@ -118,7 +121,7 @@ def estimate(config, n_particles, fastest, t0=0.0, first_frame=True, elements=(0
     steps = remaining / dt if math.isfinite(dt) else 1.0
     steps = math.ceil(steps) + len(frame_times) if steps < 1e15 else steps
     rows = steps / output.history_every + frames
-    row_bytes = HISTORY_NUMBER_BYTES * (6 + 6 * len(config.bodies))
+    row_bytes = HISTORY_NUMBER_BYTES * (6 + len(BODY_FIELDS) * len(config.bodies))
     n_elements, n_nodes = elements
     kept = CHECKPOINTS_AT_ONCE if output.checkpoints else 0
     out = (frames * (n_particles * (bytes_per_particle(FRAME_COLUMNS) + DERIVED_BYTES)

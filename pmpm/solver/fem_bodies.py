@@ -40,7 +40,7 @@ from ..fem.hexahedron import FACES, element_volumes
 from ..fem.stability import mesh_rate
 from ..kernels.records import BodyMaterials
 from ..materials import layout
-from ..materials.state import MaterialState
+from ..materials.state import MaterialState, with_later_columns
 from .bodies import initial_field
 from .errors import SetupError
 from .fem_partition import element_owners, partition_mesh, shared_with
@@ -104,7 +104,8 @@ class FemBodies:
         fem = cls.__new__(cls)
         fem.take_config(config, table, world)
         order = np.argsort(elements["element_id"], kind="stable")
-        elements = {k: col[order] for k, col in elements.items()}
+        elements = with_later_columns({k: col[order] for k, col in elements.items()},
+                                      len(order))
         order = np.argsort(nodes["node_id"], kind="stable")
         nodes = {k: col[order] for k, col in nodes.items()}
         fem.first_element = {b: int(np.flatnonzero(elements["body"] == b)[0])
@@ -168,7 +169,8 @@ class FemBodies:
         self.v[self.fixed] = 0.0                   # the constraints hold from the start
         self.hold_at_faces(None)
         self.state = MaterialState(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
-                                   rho0.copy(), np.zeros(m), np.zeros(m), temp, np.zeros(m))
+                                   rho0.copy(), np.zeros(m), np.zeros(m), temp, np.zeros(m),
+                                   np.zeros(m), np.zeros(m))
         self.hourglass = Hourglass(*self.hourglass_forms(config), np.zeros((m, 12)),
                                    np.zeros(m))
 
@@ -405,16 +407,18 @@ class FemBodies:
 
     def body_stats(self):
         """Per FEM body name, over all ranks (collective): mass, counts, centroid,
-        velocity, bbox and energies."""
+        velocity, bbox, energies (the plastic work among them) and failed elements."""
         nb = len(self.names)
-        sums, box = np.zeros((nb, 12)), np.full((nb, 6), -np.inf)
+        sums, box = np.zeros((nb, 14)), np.full((nb, 6), -np.inf)
         for b in self.body_indices:
             nodes, elems = (self.node_body == b) & self.owned, self.body == b
             m, x, v = self.mass[nodes], self.x[nodes], self.v[nodes]
             sums[b] = [m.sum(), *(m @ x), *(m @ v), elems.sum(), nodes.sum(),
                        0.5 * m @ np.einsum("ij,ij->i", v, v),
                        self.element_mass[elems] @ self.state.e_int[elems],
-                       self.hourglass.energy[elems].sum()]
+                       self.hourglass.energy[elems].sum(),
+                       self.element_mass[elems] @ self.state.w_p[elems],
+                       np.count_nonzero(self.state.damage[elems] >= 1.0)]
             if nodes.any():
                 box[b, :3], box[b, 3:] = -x.min(axis=0), x.max(axis=0)
         sums, box = self.world.sum(sums), self.world.max(box)
@@ -445,7 +449,8 @@ class FemBodies:
                  "node_displacement": self.x[self.owned] - self.x0[self.owned]}
         elements = {"element_id": self.element_id, "hexes": self.node_id[self.hexes],
                     "body": self.body, "stress": s.stress, "eps_p": s.eps_p,
-                    "density": s.rho, "e_int": s.e_int, "centroid": self.centroids(),
+                    "density": s.rho, "e_int": s.e_int, "damage": s.damage,
+                    "centroid": self.centroids(),
                     "hourglass_energy": self.hourglass.energy}
         return nodes, elements
 
@@ -491,7 +496,8 @@ def body_entry(sums, box):
             "velocity": (sums[4:7] / safe).tolist(), "bbox_min": (-box[:3]).tolist(),
             "bbox_max": box[3:].tolist(),
             "energy": {"kinetic": float(sums[9]), "internal": float(sums[10]),
-                       "hourglass": float(sums[11])}}
+                       "hourglass": float(sums[11]), "plastic": float(sums[12])},
+            "n_failed": int(sums[13])}
 
 
 def constrained_faces(grid):

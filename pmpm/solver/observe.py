@@ -11,10 +11,11 @@ def energies(world, particles):
 
 
 def body_stats(world, particles, names):
-    """Per body: mass, n_particles, centroid, velocity (mass-weighted), bbox_min/max and
-    energy (kinetic, internal)."""
+    """Per body: mass, n_particles, centroid, velocity (mass-weighted), bbox_min/max,
+    energy (kinetic, internal, and plastic: the plastic work sum m w_p, a part of the
+    internal energy) and n_failed (particles with damage >= 1)."""
     p, nb = particles, len(names)
-    sums = np.zeros((nb, 10))
+    sums = np.zeros((nb, 12))
     box = np.full((nb, 6), -np.inf)
     for b in range(nb):
         mine = p.body == b
@@ -23,7 +24,8 @@ def body_stats(world, particles, names):
         m = p.mass[mine]
         v = p.v[mine]
         sums[b] = [m.sum(), mine.sum(), *(m @ p.x[mine]), *(m @ v),
-                   0.5 * m @ np.einsum("ij,ij->i", v, v), m @ p.e_int[mine]]
+                   0.5 * m @ np.einsum("ij,ij->i", v, v), m @ p.e_int[mine],
+                   m @ p.w_p[mine], np.count_nonzero(p.damage[mine] >= 1.0)]
         box[b, :3], box[b, 3:] = -p.x[mine].min(axis=0), p.x[mine].max(axis=0)
     sums, box = world.sum(sums), world.max(box)
     stats = {}
@@ -35,5 +37,7 @@ def body_stats(world, particles, names):
                        "velocity": (sums[b, 5:8] / safe).tolist(),
                        "bbox_min": (-box[b, :3]).tolist(), "bbox_max": box[b, 3:].tolist(),
                        "energy": {"kinetic": float(sums[b, 8]),
-                                  "internal": float(sums[b, 9])}}
+                                  "internal": float(sums[b, 9]),
+                                  "plastic": float(sums[b, 10])},
+                       "n_failed": int(sums[b, 11])}
     return stats

@@ -61,10 +61,12 @@ class Progress:
         self.started = clock.perf_counter()
         self.recent = RecentRate(self.started, t, work)
 
-    def update(self, step, t, dt, work, energy_growth=0.0, lost=0):
+    def update(self, step, t, dt, work, energy_growth=0.0, lost=0, failed=0):
         """After a step: ``dt`` the step the run takes (not one shortened to land on a
         frame), ``work`` the particle-steps done so far, ``energy_growth`` the current
-        energy balance (fraction)."""
+        energy balance (fraction), ``lost`` the particles that left the grid, ``failed``
+        the failed points (damage >= 1, particles and elements, all ranks) at the last
+        history row."""
         if not self.enabled:
             return
         fraction = t / self.end if self.end > 0 else 1.0
@@ -81,7 +83,8 @@ class Progress:
         eta = (self.end - t) / speed if speed > 0 else float("nan")
         line = (f"step {step:7d}  t {t:.4e}  dt {dt:.3e}  {100 * fraction:5.1f}%  "
                 f"{rate / 1e6:6.2f} M particle-steps/s  energy {100 * energy_growth:+6.2f}%  "
-                f"ETA {eta:7.1f} s" + (f"  lost {lost}" if lost else ""))
+                f"ETA {eta:7.1f} s" + (f"  lost {lost}" if lost else "")
+                + (f"  failed {failed}" if failed else ""))
         end = "\r" if self.tty and fraction < 1.0 else "\n"
         self.stream.write(line + end)
         self.stream.flush()

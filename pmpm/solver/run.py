@@ -44,9 +44,10 @@ class Schedule:
 
 
 def body_energies(stats):
-    """[kinetic, internal] of one body's stats, its hourglass energy in the internal."""
+    """[kinetic, internal, plastic] of one body's stats, its hourglass energy in the
+    internal (the plastic work is a part of the internal energy)."""
     e = stats["energy"]
-    return [e["kinetic"], e["internal"] + e.get("hourglass", 0.0)]
+    return [e["kinetic"], e["internal"] + e.get("hourglass", 0.0), e["plastic"]]
 
 
 class Runner:
@@ -77,6 +78,7 @@ class Runner:
         #                             are measured over the steps after it: wall, particle-
         #                             and element-steps
         self.frame_index = 0
+        self.failed = 0             # failed points (damage >= 1) at the last history row
         self.n_initial = self.world.sum(sim.particles.n)
         self.allowance = float(self.config.grid.lost_mass_fraction)
         self.n_elements = sim.n_elements
@@ -222,7 +224,7 @@ class Runner:
         if self.checkpoint_due(at_frame):
             self.save_checkpoint(dt)
         self.progress.update(step, sim.time, self.step_dt, self.particle_steps,
-                             self.watch.growth, sim.lost)
+                             self.watch.growth, sim.lost, self.failed)
 
     def check_lost(self, dt):
         """A fault when some body has lost more than grid.lost_mass_fraction of its
@@ -288,7 +290,7 @@ class Runner:
         columns = {"x": p.x, "displacement": p.x - p.x0, "v": p.v, "stress": p.stress,
                    "eps_p": p.eps_p,
                    "density": p.rho, "mass": p.mass, "body": p.body, "id": p.id,
-                   "temp": p.temp, "e_int": p.e_int}
+                   "temp": p.temp, "e_int": p.e_int, "damage": p.damage}
         if self.sim.points.apic:
             columns["affine"] = p.affine
         self.writer.write_frame(self.sim.time, self.sim.step_count,
@@ -313,6 +315,7 @@ class Runner:
         if fault:
             raise SolverError(self.fault_message(fault, dt, taken=True))
         stats = self.sim.body_stats()
+        self.failed = sum(s["n_failed"] for s in stats.values())
         if self.history is not None:
             rows = {name: s["centroid"] + s["velocity"] + body_energies(s)
                     for name, s in stats.items()}
@@ -375,6 +378,7 @@ class Runner:
 
     def summary(self):
         sim = self.sim
+        bodies = self.body_summary()
         return {
             "case": self.config.title,
             "ranks": self.world.size,
@@ -386,12 +390,13 @@ class Runner:
             "particle_steps_per_s": self.rate(),
             "particle_steps_per_s_per_rank": self.rate() / self.world.size,
             "particles_lost": int(sim.lost),
+            "n_failed": sum(body["n_failed"] for body in bodies.values()),
             "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
             "windows": self.window_summary(),
             "energy": sim.energies(),
             "energy_balance": self.watch.summary(),
             "memory": memory_summary(self.world, self.baseline_rss, self.n_initial),
-            "bodies": self.body_summary(),
+            "bodies": bodies,
             **self.element_summary(),
             **self.sim.contact_summary(),
             "communication": self.communication_summary(),

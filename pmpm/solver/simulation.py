@@ -388,7 +388,8 @@ def merged_stats(elements, particles):
         return ((elements["mass"] * np.asarray(elements[key]) + particles["mass"]
                  * np.asarray(particles[key])) / safe).tolist()
     merged = dict(elements, mass=mass, n_particles=particles["n_particles"],
-                  centroid=mean("centroid"), velocity=mean("velocity"))
+                  centroid=mean("centroid"), velocity=mean("velocity"),
+                  n_failed=elements["n_failed"] + particles["n_failed"])
     merged["bbox_min"] = np.minimum(elements["bbox_min"], particles["bbox_min"]).tolist()
     merged["bbox_max"] = np.maximum(elements["bbox_max"], particles["bbox_max"]).tolist()
     merged["energy"] = {key: value + particles["energy"].get(key, 0.0)
