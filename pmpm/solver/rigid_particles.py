@@ -28,7 +28,8 @@ Grid contact is needed (``contact.method`` 1 or 2): without it the rigid body's
 particles share their nodes' one field with the others' and the impulse between them is
 not measured; the case check refuses that. Rigid particle bodies take no part in
 particle-to-surface contact (ICFEMP); they meet FEM bodies by grid coupling (CFEMP),
-whose FE nodes are then the partners. The grid's faces do not hold a free rigid body.
+whose FE nodes are then the partners. The grid's faces do not hold a free rigid body,
+and two rigid bodies do not meet (their nodes take their mean velocity).
 
 MPI: each rank adds the impulses of the contact nodes it counts (a shared slab plane by
 the upper rank); the ranks' sums are gathered and added in rank order, so every rank
@@ -54,12 +55,10 @@ class FreeRigidParticles(Coupling):
     world : comm.World
     points : solver.particle_bodies.ParticleBodies
     grid_contact : solver.contact.GridContact   (its per-body fields)
-    m_tiny : float
     """
 
-    def __init__(self, config, world, points, grid_contact, m_tiny):
+    def __init__(self, config, world, points, grid_contact):
         self.world, self.points, self.contact = world, points, grid_contact
-        self.m_tiny = m_tiny
         self.free = free_axes(config, "particles")
         self.bodies = self.free.any(axis=1)
         self.grid_rigid = np.asarray(points.bodies.grid_rigid, bool)
@@ -130,10 +129,10 @@ class FreeRigidParticles(Coupling):
         p.v[on] = np.where(self.free[body], self.velocity[body], p.v[on])
 
 
-def free_rigid_particles(config, world, points, grid_contact, m_tiny):
+def free_rigid_particles(config, world, points, grid_contact):
     """The coupling of the case's free rigid particle bodies, or None when it has none
     (grid contact is there: the case check refuses such a body without it)."""
     if grid_contact is None:
         return None
-    motion = FreeRigidParticles(config, world, points, grid_contact, m_tiny)
+    motion = FreeRigidParticles(config, world, points, grid_contact)
     return motion if motion.active else None

@@ -73,8 +73,7 @@ class Simulation:
         if grid_contact:
             couplings.append(grid_contact)
         # right after the grid contact, whose fields it reads, before the points move
-        self.rigid_particles = free_rigid_particles(config, world, self.points, grid_contact,
-                                                    m_tiny)
+        self.rigid_particles = free_rigid_particles(config, world, self.points, grid_contact)
         if self.rigid_particles:
             couplings.append(self.rigid_particles)
         nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
