@@ -281,7 +281,8 @@ particles of two or more bodies reach, and every pair of bodies is in contact; n
 come from each body's mass gradient (Eq. 9). At a node where more than two bodies meet,
 each body is in contact with the centre of mass of all of them, with the rules of its pair
 with the heaviest other body there. Contact with a rigid body works against its
-prescribed velocity. Without `separation` two bodies are in contact at every node both
+velocity: the prescribed one, or, in the axes `rigid.free` names on a particle body, its
+own, which then changes by its weight and the opposite of what the others took. Without `separation` two bodies are in contact at every node both
 reach, as soon as they approach, so surfaces up to about a cell apart push on each other;
 with linear shape functions and 2 particles per cell, touching flat surfaces are 2/3 to 1
 cell apart by the separation measure, so 0.9 keeps them and leaves alone gaps wider than

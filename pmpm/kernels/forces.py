@@ -135,18 +135,73 @@ def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_pl
             other = _heaviest_other(cnodal, s, b, m_tiny)
             if other < 0:
                 continue
-            for d in range(3):
-                own[d] = cforce[s, b, d] / m
-            constrain_coded(own, codes[n])
-            for d in range(3):
-                imp[d] = mr * (cnew[s, b, 3 + d] - own[d]) * dt
-            if share[b] > 0.0:
-                for d in range(3):
-                    own[d] = cnodal[s, b, 1 + d] / m
-                constrain_coded(own, codes[n])
-                for d in range(3):
-                    imp[d] += share[b] * mr * (cvel[s, b, d] - own[d])
+            _body_impulse(cnodal, cvel, cforce, cnew, s, b, mr, share[b], codes[n], dt,
+                          own, imp)
             add_pair(out, b, other, imp, cnorm[s, b])
+
+
+@njit(cache=True, inline="always")
+def _body_impulse(cnodal, cvel, cforce, cnew, s, b, mr, share, code, dt, own, imp):
+    """imp = the impulse grid contact gave body b at slot s (module docstring): ``mr``
+    (a - a_alone) dt + ``share`` mr (v0 - v_alone), the body's own acceleration and
+    velocity within the node's face code ``code``; ``own`` is scratch."""
+    m = cnodal[s, b, 0]
+    for d in range(3):
+        own[d] = cforce[s, b, d] / m
+    constrain_coded(own, code)
+    for d in range(3):
+        imp[d] = mr * (cnew[s, b, 3 + d] - own[d]) * dt
+    if share > 0.0:
+        for d in range(3):
+            own[d] = cnodal[s, b, 1 + d] / m
+        constrain_coded(own, code)
+        for d in range(3):
+            imp[d] += share * mr * (cvel[s, b, d] - own[d])
+
+
+@njit(cache=True)
+def rigid_partner_impulses(slots, real_mass, share, body_rigid, free, codes, counted,
+                           per_plane, dt, out):
+    """Add to ``out[r]`` (n_bodies, 3) the impulse grid contact gave the other bodies
+    at the contact nodes this rank counts where the rigid body r has mass, for the
+    bodies r that ``free`` marks (free rigid particle bodies, pmpm.solver.
+    rigid_particles). A node that rigid bodies reach takes their velocity (their
+    mass-weighted mean, pmpm.kernels.mpm.nodal_velocities), and every other body there
+    is corrected against it, whichever body is its heaviest other: so the sum of their
+    impulses (:func:`_body_impulse`, each with the mass its own points put on the node,
+    ``real_mass``) is what the rigid bodies gave, shared among them by their masses at
+    the node. The other bodies' impulses are those :func:`contact_impulses` counts, and
+    also those of a body with a mass below the contact's threshold there: its points take
+    the rigid velocity and no acceleration, so they lose their own force (a particle at
+    the edge of a node's reach puts little mass on it, but not little force: 1e-11 of
+    the falling blocks' momentum in tests/test_rigid_free_particles.py)."""
+    cnodal, slot_nodes, cvel, _, cforce, cnew = slots
+    imp, own, total = np.empty(3), np.empty(3), np.empty(3)
+    for s in range(slot_nodes.shape[0]):
+        n = slot_nodes[s]
+        if not counted[n // per_plane]:
+            continue
+        rigid_mass, freed = 0.0, False
+        for c in range(cnodal.shape[1]):
+            if body_rigid[c] and cnodal[s, c, 0] > 0.0:
+                rigid_mass += cnodal[s, c, 0]
+                freed = freed or free[c]
+        if not freed:
+            continue
+        total[:] = 0.0
+        for b in range(cnodal.shape[1]):
+            m, mr = cnodal[s, b, 0], real_mass[s, b]
+            if m <= 0.0 or mr <= 0.0 or body_rigid[b]:
+                continue
+            _body_impulse(cnodal, cvel, cforce, cnew, s, b, mr, share[b], codes[n], dt,
+                          own, imp)
+            for d in range(3):
+                total[d] += imp[d]
+        for r in range(cnodal.shape[1]):
+            if free[r] and body_rigid[r] and cnodal[s, r, 0] > 0.0:
+                weight = cnodal[s, r, 0] / rigid_mass
+                for d in range(3):
+                    out[r, d] += weight * total[d]
 
 
 @njit(cache=True, inline="always")

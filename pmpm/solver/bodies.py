@@ -19,10 +19,12 @@ class BodyTable:
         for i, body in enumerate(bodies):
             self.codes[i], self.params[i] = catalog.pack(config.materials[body.material])
         self.rigid = (self.codes == layout.RIGID)
-        #: rigid bodies that impose their velocity on the grid (a free rigid body,
-        #: ``rigid.free``, meets the others there with its nodes' masses instead)
+        #: rigid bodies that impose their velocity on the grid (a free rigid FEM body,
+        #: ``rigid.free``, meets the others there with its nodes' masses instead; a free
+        #: rigid particle body imposes its velocity too, and then takes the contact's
+        #: impulses, pmpm.solver.rigid_particles)
         self.grid_rigid = self.rigid & ~np.array(
-            [bool((b.rigid or {}).get("free")) for b in bodies], bool)
+            [bool((b.rigid or {}).get("free")) and b.method == "fem" for b in bodies], bool)
         #: the particles' uGIMP half-width in cells: half the lattice spacing (an FEM
         #: body's: half that of the particles its elements convert into)
         self.half_width = np.array([0.5 * converted_spacing(b, config.grid.cell)

@@ -50,7 +50,7 @@ class RigidMotion:
     def __init__(self, config, elements, world):
         self.world = world
         nb = len(config.bodies)
-        self.free = free_axes(config)
+        self.free = free_axes(config, "fem")
         self.gravity = np.asarray(config.gravity, np.float64)
         self.mass = self.body_masses(elements, nb)
         self.velocity = self.body_velocities(elements, nb)
@@ -162,10 +162,13 @@ class RigidMotion:
         elements.x[on] += dt * dv
 
 
-def free_axes(config):
-    """(nb, 3) bool: the free axes of each rigid FEM body (pmpm.case.rigid)."""
+def free_axes(config, method=None):
+    """(nb, 3) bool: the free axes of each rigid body (pmpm.case.rigid), of the bodies
+    of ``method`` only ("fem" or "particles") when given."""
     free = np.zeros((len(config.bodies), 3), bool)
     for b, body in enumerate(config.bodies):
+        if method is not None and (body.method == "fem") != (method == "fem"):
+            continue
         for axis in (body.rigid or {}).get("free", ()):
             free[b, "xyz".index(axis)] = True
     return free

@@ -25,6 +25,7 @@ from .refine import Refiner
 from .schemes import make_scheme
 from .step import Stepper
 from .rigid_motion import RigidMotion
+from .rigid_particles import free_rigid_particles
 from .surface_contact import SurfaceContact
 
 
@@ -67,9 +68,14 @@ class Simulation:
         rules = ContactRules(config.contact, bodies,
                              [b.method == "fem" for b in config.bodies])
         couplings = [TiedInterface(world)] if self.windows else []
-        if rules.active:
-            couplings.append(GridContact(rules, world, bodies, m_tiny, len(self.grids.states),
-                                         start_shares(config)))
+        grid_contact = GridContact(rules, world, bodies, m_tiny, len(self.grids.states),
+                                   start_shares(config)) if rules.active else None
+        if grid_contact:
+            couplings.append(grid_contact)
+        # right after the grid contact, whose fields it reads, before the points move
+        self.rigid_particles = free_rigid_particles(config, world, self.points, grid_contact)
+        if self.rigid_particles:
+            couplings.append(self.rigid_particles)
         nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
                                    grid, bodies, m_tiny)
         self.surface = self.node_contact = None
