@@ -130,7 +130,9 @@ def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_pl
             continue
         for b in range(cnodal.shape[1]):
             m, mr = cnodal[s, b, 0], real_mass[s, b]
-            if m <= m_tiny or mr <= 0.0 or body_rigid[b]:
+            # a body below the contact's tiny mass takes the shared field's motion: its
+            # points lose their own force there, which counts as the contact's push
+            if m <= 0.0 or mr <= 0.0 or body_rigid[b]:
                 continue
             other = _heaviest_other(cnodal, s, b, m_tiny)
             if other < 0:

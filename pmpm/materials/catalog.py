@@ -71,8 +71,8 @@ MODELS = {m.name: m for m in [
            "viscosity": Param(L.VISCOSITY, "MPa ms", "dynamic viscosity", 0.0),
            "tension_cutoff": Param(L.TENSION_CUTOFF, "MPa", "largest tension the fluid sustains", 0.0)},
           elastic=False, needs_eos=True),
-    Model("rigid", L.RIGID, "rigid body moving with its prescribed velocity (an FEM body: free in the axes its "
-          "rigid.free names)",
+    Model("rigid", L.RIGID, "rigid body moving with its prescribed velocity (free, under "
+          "contact and gravity, in the axes its rigid.free names)",
           dict(DENSITY), elastic=False),
 ]}
 
