@@ -152,7 +152,7 @@ def check_history(out):
     header, rows = read_history(out)
     assert header == ["step", "time", "dt", "kinetic", "internal", "total",
                       "bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz",
-                      "bar.kinetic", "bar.internal", "bar.plastic"]
+                      "bar.kinetic", "bar.internal", "bar.plastic", "bar.hourglass"]
     # one body: its energies are the totals
     assert np.allclose(rows[:, 12:14], rows[:, 3:5], rtol=1e-12, atol=0)
     steps = rows[:, 0]

@@ -85,8 +85,8 @@ def test_summary_reports_the_fem_body(runs):
     assert abs(summary["energy_balance"]["growth"]) < 0.01
     with open(os.path.join(runs[1.0], "history.csv")) as f:
         header = f.readline().strip().split(",")
-    assert header[-9:] == ["bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz",
-                           "bar.kinetic", "bar.internal", "bar.plastic"]
+    assert header[-10:] == ["bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz",
+                            "bar.kinetic", "bar.internal", "bar.plastic", "bar.hourglass"]
 
 
 def test_elements_xdmf_points_at_the_datasets_of_elements_h5(runs):

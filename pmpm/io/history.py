@@ -4,10 +4,11 @@ energies over time.
 Written by rank 0 only. Header::
 
     step,time,dt,kinetic,internal,total,NAME.x,NAME.y,NAME.z,NAME.vx,NAME.vy,NAME.vz,
-    NAME.kinetic,NAME.internal,NAME.plastic,...
+    NAME.kinetic,NAME.internal,NAME.plastic,NAME.hourglass,...
 
-A body's internal energy includes its elements' hourglass energy, so that the bodies'
-energies add up to the totals. ``NAME.plastic`` is the body's plastic work (the sum over
+A body's internal energy includes its elements' hourglass energy (``NAME.hourglass``,
+0 for particle bodies: the work of the one-point elements' hourglass control, stored or
+dissipated), so that the bodies' energies add up to the totals. ``NAME.plastic`` is the body's plastic work (the sum over
 its particles and elements of mass times the specific plastic work, sigma_y d eps_p /
 rho summed over the steps): the part of ``NAME.internal`` dissipated by plastic flow, not
 an energy of its own (do not add it to the totals).
@@ -21,7 +22,8 @@ import numpy as np
 
 from ._files import atomic_write_text, resolve
 
-BODY_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "kinetic", "internal", "plastic")
+BODY_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "kinetic", "internal", "plastic",
+               "hourglass")
 ENERGY_FIELDS = ("kinetic", "internal", "total")
 
 
@@ -88,7 +90,7 @@ class HistoryWriter:
         body_rows : sequence or dict
             Per body (in ``body_names`` order, or a dict keyed by name) the values
             x, y, z, vx, vy, vz (mass-weighted centroid and velocity), kinetic, internal,
-            plastic.
+            plastic, hourglass.
         """
         if isinstance(energies, dict):
             energies = [energies[key] for key in ENERGY_FIELDS]

@@ -44,10 +44,12 @@ class Schedule:
 
 
 def body_energies(stats):
-    """[kinetic, internal, plastic] of one body's stats, its hourglass energy in the
-    internal (the plastic work is a part of the internal energy)."""
+    """[kinetic, internal, plastic, hourglass] of one body's stats: the internal energy
+    holds the plastic work and the elements' hourglass energy (0 for particles), so that
+    the bodies' energies add up to the totals."""
     e = stats["energy"]
-    return [e["kinetic"], e["internal"] + e.get("hourglass", 0.0), e["plastic"]]
+    hourglass = e.get("hourglass", 0.0)
+    return [e["kinetic"], e["internal"] + hourglass, e["plastic"], hourglass]
 
 
 class Runner:
