@@ -24,7 +24,9 @@ FILE_SECONDS = {
     "test_contact.py": 22, "test_wave_bar.py": 16, "test_lost_particles.py": 16,
     "test_sphere_rolling_fem.py": 14, "test_ogive_plate_fem.py": 14,
     "test_wall_friction.py": 12, "test_fem_bending.py": 70,
-    "test_surface_contact_search.py": 10, "test_damage.py": 20,
+    "test_surface_contact_search.py": 10, "test_damage.py": 20, "test_forces.py": 30,
+    "test_geometry_input.py": 15, "test_frame_precision.py": 15, "test_displacement.py": 20,
+    "test_rigid_free_particles.py": 40, "test_probes.py": 25, "test_post_plots.py": 15,
 }
 OTHER_FILE_SECONDS = 5
 
