@@ -122,7 +122,7 @@ def test_patch_test_uniform_strain_gives_uniform_stress_and_no_hourglass_force()
     m = len(hexes)
     mat = type(one_element_state())(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
                                     np.full(m, RHO), np.zeros(m), np.zeros(m), np.zeros(m),
-                                    np.zeros(m))
+                                    np.zeros(m), np.zeros(m), np.zeros(m))
     force, mat, hg, _ = forces(None, v, dt=1e-3, mat=mat, mesh=(g, hexes))
     assert np.abs(mat.stress - mat.stress[0]).max() < 1e-12 * np.abs(mat.stress).max()
     assert np.abs(hg.resist).max() < 1e-12 * np.abs(mat.stress).max()

@@ -59,7 +59,7 @@ def test_force_replaces_a_previous_run_and_says_so(tmp_path):
     said = [line for line in done.stdout.splitlines() if line.startswith("pmpm: --force:")]
     assert len(said) == 1, done.stdout
     assert said[0].startswith("pmpm: --force: replacing particles.h5, particles.xdmf, "
-                              "history.csv, summary.json, checkpoint_")
+                              "history.csv, summary.json, forces.csv, checkpoint_")
     assert "checkpoint_999999.h5" in said[0] and said[0].endswith(f" in {out}")
     assert not stale.exists()
     assert sorted(os.listdir(out)) == before

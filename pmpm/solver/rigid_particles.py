@@ -32,7 +32,7 @@ whose FE nodes are then the partners. The grid's faces do not hold a free rigid 
 and two rigid bodies do not meet (their nodes take their mean velocity).
 
 MPI: each rank adds the impulses of the contact nodes it counts (a shared slab plane by
-the upper rank); the ranks' sums are gathered and added in rank order, so every rank
+the lower rank); the ranks' sums are gathered and added in rank order, so every rank
 moves the body alike; 1 rank and N differ by the round-off of the plane sums. M_b is
 summed over all ranks in particle id order. A restart reads V_b back from the particles'
 velocities, which the checkpoint keeps.
