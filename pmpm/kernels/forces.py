@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from .boundary import FIXED, SLIP, UPPER, constrain_coded
+from .contact import _heaviest_other
 
 #: the width of one pair's record: impulse (3), normal impulse (compression positive),
 #: tangential impulse (3)
@@ -100,15 +101,6 @@ def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_ti
             face = _face_of_component(block.faces[n], g, block, d, face_of[k])
             if face >= 0:
                 out[face, d] += impulse
-
-
-@njit(cache=True, inline="always")
-def _heaviest_other(cnodal, s, b, m_tiny):
-    other, heaviest = -1, m_tiny
-    for c in range(cnodal.shape[1]):
-        if c != b and cnodal[s, c, 0] > heaviest:
-            other, heaviest = c, cnodal[s, c, 0]
-    return other
 
 
 @njit(cache=True)
