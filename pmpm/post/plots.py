@@ -56,14 +56,8 @@ def plot_bodies(out_dir, path):
                 top.plot(hist["time"], v, label=f"{name} v{axis}")
             if np.ptp(x) > 0:
                 bottom.plot(hist["time"], x - x[0], label=f"{name} {axis}")
-    top.set_ylabel("velocity")
-    bottom.set_ylabel("centroid displacement")
-    bottom.set_xlabel("time")
-    for axes in (top, bottom):
-        if axes.lines:
-            axes.legend(fontsize="small")
-    fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + ": bodies")
-    return _save(fig, path)
+    return _finish(fig, (top, bottom), ("velocity", "centroid displacement"), out_dir,
+                   ": bodies", path)
 
 
 def read_csv(path):
@@ -86,14 +80,8 @@ def plot_forces(out_dir, path):
             top.plot(t, values, label=name)
         elif "/" not in name:
             bottom.plot(t, values, label=name)
-    top.set_ylabel("contact force")
-    bottom.set_ylabel("reaction force")
-    bottom.set_xlabel("time")
-    for axes in (top, bottom):
-        if axes.lines:
-            axes.legend(fontsize="small")
-    fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + ": forces (mean over each row)")
-    return _save(fig, path)
+    return _finish(fig, (top, bottom), ("contact force", "reaction force"), out_dir,
+                   ": forces (mean over each row)", path)
 
 
 def plot_probes(out_dir, path, names):
@@ -109,14 +97,8 @@ def plot_probes(out_dir, path, names):
         for field in ("pressure", "von_mises"):
             if not np.all(np.isnan(probe[field])):
                 bottom.plot(probe["time"], probe[field], label=f"{name} {field}")
-    top.set_ylabel("velocity")
-    bottom.set_ylabel("stress")
-    bottom.set_xlabel("time")
-    for axes in (top, bottom):
-        if axes.lines:
-            axes.legend(fontsize="small")
-    fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + ": probes")
-    return _save(fig, path)
+    return _finish(fig, (top, bottom), ("velocity", "stress"), out_dir, ": probes",
+                   path)
 
 
 def probe_names(out_dir):
@@ -163,6 +145,18 @@ def plot_frame(out_dir, path, index=-1, field=None, normal="y"):
     axes.set_xlabel(AXES[keep[0]])
     axes.set_ylabel(AXES[keep[1]])
     axes.set_title(f"{os.path.basename(os.path.abspath(out_dir))}: {field} at t = {time:.4g}")
+    return _save(fig, path)
+
+
+def _finish(fig, panels, labels, out_dir, title, path):
+    """Label a two-panel time plot, add the legends of panels that drew lines, title it
+    with the run's folder name and save it."""
+    for axes, label in zip(panels, labels):
+        axes.set_ylabel(label)
+        if axes.lines:
+            axes.legend(fontsize="small")
+    panels[-1].set_xlabel("time")
+    fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + title)
     return _save(fig, path)
 
 
