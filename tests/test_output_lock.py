@@ -37,11 +37,15 @@ def wait_for(path, first, limit=60.0):
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_a_second_run_into_a_running_runs_directory_is_refused(tmp_path, ranks):
     out = tmp_path / "out"
-    first = start([BAR, "--out", out, "--quiet"], ranks)
+    # 4700 steps (several seconds): the second run's start-up (imports, the case) must
+    # fall inside the first one's life even on a loaded machine; 48 steps did not.
+    first = start([BAR, "--out", out, "--quiet", "--set", "time.end=0.5",
+                   "--set", "output.checkpoint_every=1000"], ranks)
     wait_for(out / LOCK, first)
     second = pmpm([BAR, "--out", out, "--force", "--quiet"], ranks)
+    still_running = first.poll() is None
     stdout, stderr = first.communicate(timeout=300)
-    assert second.returncode == 2, second.stderr
+    assert second.returncode == 2, (second.stderr, f"first run still running: {still_running}")
     lines = pmpm_lines(second.stderr)
     assert len(lines) == 1 and "is in use by another pmpm run" in lines[0], lines
     assert f"on {socket.gethostname()}" in lines[0] and LOCK in lines[0]
