@@ -150,11 +150,12 @@ def check_summary(summary, ranks):
 
 def check_history(out):
     header, rows = read_history(out)
-    assert header == ["step", "time", "dt", "kinetic", "internal", "total",
+    assert header == ["step", "time", "dt", "kinetic", "internal", "total", "dissipated",
                       "bar.x", "bar.y", "bar.z", "bar.vx", "bar.vy", "bar.vz",
                       "bar.kinetic", "bar.internal", "bar.plastic", "bar.hourglass"]
     # one body: its energies are the totals
-    assert np.allclose(rows[:, 12:14], rows[:, 3:5], rtol=1e-12, atol=0)
+    assert np.allclose(rows[:, 13:15], rows[:, 3:5], rtol=1e-12, atol=0)
+    assert np.abs(rows[:, 6]).max() < 1e-9 * rows[0, 3]     # a slip wall dissipates nothing
     steps = rows[:, 0]
     assert steps[0] == 0 and steps[-1] == 48
     assert (steps[1:] > steps[:-1]).all() and (rows[1:, 1] > rows[:-1, 1]).all()

@@ -1,6 +1,7 @@
 """Multi-velocity grid contact (seed 001 Secs. 2-4): friction against the closed form,
 momentum conservation, no interpenetration, the stick limit, and bad input."""
 import csv
+import json
 import os
 
 import numpy as np
@@ -115,6 +116,28 @@ def test_coulomb_friction_decelerates_a_sliding_block_at_mu_g(tmp_path, method):
     error = max(abs(r["block.vx"] - (1.0 - 0.2 * 10.0 * r["time"])) for r in rows)
     assert rows[-1]["time"] == pytest.approx(0.3)
     assert error < 0.025          # elastic bodies settling under gravity: not rigid
+    friction_work_closes_the_balance(tmp_path, rows)
+
+
+def friction_work_closes_the_balance(out, rows):
+    """The friction work (history.csv's dissipated = forces.csv's plate/block.dissipated)
+    is mu m g times the distance the block slid, within 2 % (measured -0.6 % with
+    method 1, -0.08 % with method 2), and with it kinetic + internal + dissipated - the
+    work of gravity stays within 2 % of the energy the bodies were given at every row
+    (measured 1.2 % and 0.03 %; without it 84 % goes unaccounted by the end)."""
+    with open(os.path.join(out, "summary.json"), encoding="utf-8") as f:
+        m = {name: b["mass"] for name, b in json.load(f)["bodies"].items()}
+    forces = np.genfromtxt(os.path.join(out, "forces.csv"), delimiter=",", names=True,
+                           deletechars="")
+    first, last = rows[0], rows[-1]
+    slid = last["block.x"] - first["block.x"]
+    assert last["dissipated"] == pytest.approx(0.2 * 10.0 * m["block"] * slid, rel=0.02)
+    assert forces["plate/block.dissipated"][-1] == pytest.approx(last["dissipated"],
+                                                                 rel=1e-12)
+    for r in rows:
+        fell = sum(m[b] * (r[f"{b}.z"] - first[f"{b}.z"]) for b in ("plate", "block"))
+        balance = r["total"] + r["dissipated"] + 10.0 * fell - first["total"]
+        assert abs(balance) < 0.02 * first["total"], r["time"]
 
 
 def test_without_friction_the_block_keeps_its_speed_and_without_contact_it_sticks(tmp_path):

@@ -183,26 +183,26 @@ def test_history_header_rows_and_restart(tmp_path):
     with HistoryWriter(tmp_path, BODIES) as history:
         for step in (0, 10, 20):
             bodies = {"plate": range(10), "ball": np.ones(10)}
-            history.row(step, 0.1 * step, 0.01, (1.0, 2.0, 3.0), bodies)
+            history.row(step, 0.1 * step, 0.01, (1.0, 2.0, 3.0, 0.5), bodies)
             with open(tmp_path / "history.csv") as handle:  # flushed while still open
                 assert handle.read().splitlines()[-1].startswith(f"{step},")
     lines = (tmp_path / "history.csv").read_text().splitlines()
-    assert lines[0] == ("step,time,dt,kinetic,internal,total,"
+    assert lines[0] == ("step,time,dt,kinetic,internal,total,dissipated,"
                         "plate.x,plate.y,plate.z,plate.vx,plate.vy,plate.vz,plate.kinetic,"
                         "plate.internal,plate.plastic,plate.hourglass,"
                         "ball.x,ball.y,ball.z,ball.vx,ball.vy,ball.vz,ball.kinetic,ball.internal,"
                         "ball.plastic,ball.hourglass")
     row = [float(v) for v in lines[2].split(",")]
-    assert row == [10, 1.0, 0.01, 1, 2, 3, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9] + [1] * 10
+    assert row == [10, 1.0, 0.01, 1, 2, 3, 0.5, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9] + [1] * 10
     with HistoryWriter(tmp_path / "history.csv", BODIES, restart_step=10) as history:
-        history.row(15, 1.5, 0.01, (1, 2, 3), [[0] * 10, [0] * 10])
+        history.row(15, 1.5, 0.01, (1, 2, 3, 0), [[0] * 10, [0] * 10])
     steps = [line.split(",")[0] for line in (tmp_path / "history.csv").read_text().splitlines()]
     assert steps == ["step", "0", "10", "15"]
 
 
 def test_history_rejects_wrong_body_rows(tmp_path):
     with HistoryWriter(tmp_path, BODIES) as history, pytest.raises(ValueError, match="body_rows"):
-        history.row(0, 0.0, 0.1, (0, 0, 0), [[0] * 6])
+        history.row(0, 0.0, 0.1, (0, 0, 0, 0), [[0] * 6])
 
 
 def summary_values():

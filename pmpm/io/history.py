@@ -3,7 +3,7 @@ energies over time.
 
 Written by rank 0 only. Header::
 
-    step,time,dt,kinetic,internal,total,NAME.x,NAME.y,NAME.z,NAME.vx,NAME.vy,NAME.vz,
+    step,time,dt,kinetic,internal,total,dissipated,NAME.x,NAME.y,NAME.z,NAME.vx,NAME.vy,NAME.vz,
     NAME.kinetic,NAME.internal,NAME.plastic,NAME.hourglass,...
 
 A body's internal energy includes its elements' hourglass energy (``NAME.hourglass``,
@@ -12,6 +12,12 @@ dissipated), so that the bodies' energies add up to the totals. ``NAME.plastic``
 its particles and elements of mass times the specific plastic work, sigma_y d eps_p /
 rho summed over the steps): the part of ``NAME.internal`` dissipated by plastic flow, not
 an energy of its own (do not add it to the totals).
+
+``total`` is kinetic + internal; ``dissipated`` is the energy contact, friction and the
+grid's faces have dissipated since the start (pmpm.solver.forces: the work of their
+impulses against the sliding they leave; only friction makes it nonzero; NaN with
+``output.forces: false``, which turns the measure off), so that total + dissipated less
+the work of gravity and the loads stays what the run was given.
 
 Each row is flushed as it is written, so ``tail -f history.csv`` follows a running case.
 Floats are written with ``repr`` (shortest exact round trip).
@@ -24,7 +30,7 @@ from ._files import atomic_write_text, resolve
 
 BODY_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "kinetic", "internal", "plastic",
                "hourglass")
-ENERGY_FIELDS = ("kinetic", "internal", "total")
+ENERGY_FIELDS = ("kinetic", "internal", "total", "dissipated")
 
 
 def history_header(body_names):
@@ -85,8 +91,8 @@ class HistoryWriter:
         ----------
         step : int
         time, dt : float
-        energies : sequence of 3 float, or dict
-            Kinetic, internal and total energy (or a dict with those keys).
+        energies : sequence of 4 float, or dict
+            Kinetic, internal, total and dissipated energy (or a dict with those keys).
         body_rows : sequence or dict
             Per body (in ``body_names`` order, or a dict keyed by name) the values
             x, y, z, vx, vy, vz (mass-weighted centroid and velocity), kinetic, internal,
@@ -95,9 +101,9 @@ class HistoryWriter:
         if isinstance(energies, dict):
             energies = [energies[key] for key in ENERGY_FIELDS]
         energies = np.asarray(energies, dtype=float).reshape(-1)
-        if energies.size != 3:
-            raise ValueError("energies: expected 3 values (kinetic, internal, total), "
-                             f"got {energies.size}")
+        if energies.size != len(ENERGY_FIELDS):
+            raise ValueError(f"energies: expected {len(ENERGY_FIELDS)} values "
+                             f"({', '.join(ENERGY_FIELDS)}), got {energies.size}")
         floats = [time, dt, *energies, *self._body_values(body_rows)]
         self._handle.write(",".join([str(int(step))] + [repr(float(v)) for v in floats]) + "\n")
         self._handle.flush()

@@ -11,6 +11,14 @@ loads put there, ``f dt``, what remains is the impulse of whatever else acted at
 node: a face of the grid box (a fixed face, a slip face, a wall, a plane of symmetry),
 or, for one body at a contact node, the other bodies. Away from faces and contact the
 remainder is zero to round-off (``a = f / m``, ``v0 = p / m``).
+
+The energy a constraint or contact dissipates in a step is the work of its impulses
+against the motion they leave: ``-J . v`` summed over the bodies it pushed, ``v`` each
+body's end-of-step velocity at the node (for contact, relative to the node's rigid body
+or, without one, to its centre of mass; the faces of the box do not move). A contact that
+leaves the bodies moving together in the normal (grid contact's correction, a surface
+pair's stick impulse) and a fixed, slip or symmetry face do no such work; friction that
+lets them slide does, mu |J_n| |v_slip|, which is LS-DYNA's sliding energy.
 """
 import numpy as np
 from numba import njit
@@ -19,8 +27,10 @@ from .boundary import FIXED, SLIP, UPPER, constrain_coded
 from .contact import _heaviest_other
 
 #: the width of one pair's record: impulse (3), normal impulse (compression positive),
-#: tangential impulse (3)
-PAIR_WIDTH = 7
+#: tangential impulse (3), dissipated energy
+PAIR_WIDTH = 8
+#: the width of one face's record: impulse (3), dissipated energy
+FACE_WIDTH = 4
 #: the columns of the raw nodal rows kept for the face impulses: mass, momentum (3),
 #: rigid mass, force (3)
 RAW_WIDTH = 8
@@ -83,8 +93,10 @@ def _face_of_component(code, g, block, d, mirror_face):
 
 @njit(cache=True)
 def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_tiny, out):
-    """Add each kept node's impulse from the faces (module docstring) to ``out`` (6, 3),
-    component by component to the face that takes it (:func:`_face_of_component`).
+    """Add each kept node's impulse from the faces (module docstring) to ``out[:, :3]``
+    (6, :data:`FACE_WIDTH`), component by component to the face that takes it
+    (:func:`_face_of_component`), and the work it dissipated (``-impulse . v`` with the
+    node's end velocity ``v``) to ``out[:, 3]``.
     Nodes of rigid bodies (rigid mass > 0) and nodes without mass are left out: a rigid
     body's push is not a face's. ``block``: the level's NodeBlock."""
     g = np.empty(3, np.int64)
@@ -101,6 +113,7 @@ def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_ti
             face = _face_of_component(block.faces[n], g, block, d, face_of[k])
             if face >= 0:
                 out[face, d] += impulse
+                out[face, 3] -= impulse * gnew[n, d]
 
 
 @njit(cache=True)
@@ -113,13 +126,17 @@ def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_pl
     within the node's faces) and ``share[b]`` times method 2's start correction ``m (v0
     - v_alone)``, with ``m`` the mass its particles put on the node (``real_mass``,
     before any reflection). The normal part is taken along b's outward normal, counted
-    positive when it pushes b inward."""
+    positive when it pushes b inward. The work dissipated, ``-imp . (v_b - v_ref)`` with
+    the end velocities (:func:`_reference_velocity`), goes to the same pair: against a
+    rigid body it is the pair's; between two deformable bodies, whose impulses are
+    opposite, the two terms add up to the pair's ``-imp . (v_b - v_other)``."""
     cnodal, slot_nodes, cvel, cnorm, cforce, cnew = slots
-    imp, own = np.empty(3), np.empty(3)
+    imp, own, ref = np.empty(3), np.empty(3), np.empty(3)
     for s in range(slot_nodes.shape[0]):
         n = slot_nodes[s]
         if not counted[n // per_plane]:
             continue
+        _reference_velocity(cnodal, cnew, body_rigid, s, ref)
         for b in range(cnodal.shape[1]):
             m, mr = cnodal[s, b, 0], real_mass[s, b]
             # a body below the contact's tiny mass takes the shared field's motion: its
@@ -132,6 +149,31 @@ def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_pl
             _body_impulse(cnodal, cvel, cforce, cnew, s, b, mr, share[b], codes[n], dt,
                           own, imp)
             add_pair(out, b, other, imp, cnorm[s, b])
+            work = 0.0
+            for d in range(3):
+                work -= imp[d] * (cnew[s, b, d] - ref[d])
+            out[b, other, 7] += work
+
+
+@njit(cache=True, inline="always")
+def _reference_velocity(cnodal, cnew, body_rigid, s, ref):
+    """ref = the end velocity a contact node's bodies slide against: its rigid bodies'
+    (their mass-weighted mean), else its bodies' centre of mass."""
+    mass, rigid_mass = 0.0, 0.0
+    ref[:] = 0.0
+    for c in range(cnodal.shape[1]):
+        if body_rigid[c] and cnodal[s, c, 0] > 0.0:
+            rigid_mass += cnodal[s, c, 0]
+    for c in range(cnodal.shape[1]):
+        m = cnodal[s, c, 0]
+        if m <= 0.0 or (rigid_mass > 0.0 and not body_rigid[c]):
+            continue
+        mass += m
+        for d in range(3):
+            ref[d] += m * cnew[s, c, d]
+    if mass > 0.0:
+        for d in range(3):
+            ref[d] /= mass
 
 
 @njit(cache=True, inline="always")
@@ -210,12 +252,15 @@ def add_pair(out, b, other, imp, normal):
 
 
 @njit(cache=True)
-def pair_impulses(first, second, impulses, normals, out):
+def pair_impulses(first, second, impulses, normals, work, out):
     """For surface and node-to-surface contact: pair k gave body ``first[k]`` the impulse
     ``-impulses[k]`` and body ``second[k]`` ``+impulses[k]``; ``normals[k]`` is the
-    face's outward normal (the face belongs to ``second[k]``)."""
+    face's outward normal (the face belongs to ``second[k]``); ``work[k]`` the energy
+    it dissipated (:func:`surface_pair_work`), half to each direction of the pair."""
     imp, normal = np.empty(3), np.empty(3)
     for k in range(impulses.shape[0]):
+        out[first[k], second[k], 7] += 0.5 * work[k]
+        out[second[k], first[k], 7] += 0.5 * work[k]
         for d in range(3):
             imp[d] = -impulses[k, d]
             normal[d] = -normals[k, d]          # the first body's outward normal
@@ -224,3 +269,13 @@ def pair_impulses(first, second, impulses, normals, out):
             imp[d] = impulses[k, d]
             normal[d] = normals[k, d]
         add_pair(out, second[k], first[k], imp, normal)
+
+
+def surface_pair_work(impulses, relative, inverse_mass):
+    """The energy each surface pair's impulse dissipated: ``I . u'`` with ``u' = u - I /
+    m`` the relative velocity it leaves (``u``: the first body's velocity less the face
+    point's before the impulse, ``I``: the impulse on the face point, ``1/m``: the pair's
+    inverse mass, ``inverse_mass``). Zero for a stick impulse (``u' = 0``); mu |I_n|
+    |u'_t| while sliding under Coulomb's cap."""
+    after = relative - impulses * inverse_mass[:, None]
+    return np.einsum("kd,kd->k", impulses, after)

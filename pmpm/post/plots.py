@@ -24,19 +24,27 @@ def pyplot():
 
 
 def plot_energies(out_dir, path):
-    """Kinetic, internal and total energy against time, and the total's change from the
-    start as a share of the energy the run was given (the largest total so far)."""
+    """Kinetic, internal and total energy against time, what contact and friction have
+    dissipated (when measured), and the balance's change from the start (total +
+    dissipated) as a share of the energy the run was given (the largest so far)."""
     hist = read_history(out_dir)
     plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
-    for name in ("kinetic", "internal", "total"):
+    names = ["kinetic", "internal", "total"]
+    dissipated = hist.get("dissipated")
+    if dissipated is not None and np.all(np.isfinite(dissipated)) and dissipated.any():
+        names.append("dissipated")
+    else:
+        dissipated = np.zeros_like(hist["total"])
+    for name in names:
         top.plot(hist["time"], hist[name], label=name)
     top.set_ylabel("energy")
     top.legend()
-    given = np.maximum.accumulate(np.abs(hist["total"]))
-    drift = (hist["total"] - hist["total"][0]) / np.where(given > 0, given, 1.0)
+    balance = hist["total"] + dissipated
+    given = np.maximum.accumulate(np.abs(balance))
+    drift = (balance - balance[0]) / np.where(given > 0, given, 1.0)
     bottom.plot(hist["time"], 100 * drift)
-    bottom.set_ylabel("total - start (% of the largest)")
+    bottom.set_ylabel("total + dissipated - start (% of the largest)")
     bottom.set_xlabel("time")
     fig.suptitle(os.path.basename(os.path.abspath(out_dir)) + ": energies")
     return _save(fig, path)

@@ -1,7 +1,8 @@
 """The energy watch: how far the run's energy balance has drifted since the start.
 
-The balance is kinetic + internal energy + gravitational potential (-sum m g.x) less the
-work the loads have done; its growth is measured against the energy the run was given
+The balance is kinetic + internal energy + what contact and friction have dissipated
+(history.csv's ``dissipated``) + gravitational potential (-sum m g.x) less the work the
+loads have done; its growth is measured against the energy the run was given
 (initial kinetic + internal, plus what gravity and the loads supplied). Where nothing
 else does work (no rigid body, no fixed face pushing, no contact with a rigid body), an
 explicit step that conserves energy keeps the balance constant; growth is numerical
@@ -17,8 +18,9 @@ CAUSES = ("particles crossing cells with linear shape functions, worst where the
           "bodies and fixed faces also do work the balance does not count")
 
 
-LOSS_CAUSES = ("contact between bodies (its dissipation is not measured: see "
-               "docs/validation/energy_channels.md), time.pic or APIC damping (a PIC "
+LOSS_CAUSES = ("contact between bodies beyond its friction (history.csv's dissipated "
+               "holds the friction work; see docs/validation/energy_channels.md), "
+               "time.pic or APIC damping (a PIC "
                "share takes kinetic energy at every transfer), a coarse grid under large rotations, particles that left the "
                "grid, elements or particles removed, fixed faces or rigid bodies "
                "absorbing an impact")
@@ -50,17 +52,20 @@ class EnergyWatch:
         self.warned_loss = False
 
     def observe(self, time, energy, potential, load_work):
-        """Take the energies of a history row (``energy``: kinetic, internal, total), the
+        """Take the energies of a history row (``energy``: kinetic, internal, total and,
+        if measured, what contact, friction and the faces have dissipated so far), the
         gravitational potential and the work the loads have done so far (all over all
         ranks); returns the growth since the start. A loss is followed too
         (:meth:`observe_loss`)."""
+        dissipated = energy.get("dissipated", 0.0)
+        dissipated = dissipated if np.isfinite(dissipated) else 0.0
         if self.start is None:
-            self.start = (energy["total"], potential)
+            self.start = (energy["total"] + dissipated, potential)
         given, potential0 = self.start
         self.load_work = load_work
         external = potential0 - potential + load_work     # the energy supplied so far
         self.supplied = max(self.supplied, external)
-        drift = energy["total"] - given - external
+        drift = energy["total"] + dissipated - given - external
         self.growth = drift / max(given + self.supplied, 1e-300)
         if self.growth > self.largest:
             self.largest, self.largest_at = self.growth, time

@@ -19,6 +19,10 @@ Attribution rules worth knowing:
   on or beyond, else to a fixed face or wall it lies on, else to the plane of symmetry
   it mirrors across (so the tangential parts of a mirrored group, which cancel, stay on
   one face);
+* dissipated energy (``A/B.dissipated``, ``x-.dissipated``: cumulative since the start,
+  unlike the forces): the work of the impulses against the motion they leave
+  (:mod:`pmpm.kernels.forces`), which only friction makes nonzero; their sum is
+  history.csv's ``dissipated``;
 * a face node that is also a contact node is counted with the shared field's motion, and
   with refined windows the tied nodes that lie on a face are not counted: both are
   approximations near such nodes only.
@@ -36,8 +40,11 @@ FACE_NAMES = ("x-", "x+", "y-", "y+", "z-", "z+")
 class ForceLog(Coupling):
     """Accumulates, over ranks and steps, the impulses between body pairs (``pair``:
     n_bodies x n_bodies x kf.PAIR_WIDTH, on the first body from the second), on the
-    material from the box faces (``face``: 6 x 3) and on each FEM body from its
-    constrained nodes (``support``: n_bodies x 3) since the last history row.
+    material from the box faces (``face``: 6 x kf.FACE_WIDTH) and on each FEM body from
+    its constrained nodes (``support``: n_bodies x 3) since the last history row, with
+    the energy the pairs and faces dissipated; ``dissipated_pair`` (n_bodies x
+    n_bodies) and ``dissipated_face`` (6) are those energies since the start, the same
+    on every rank.
 
     It runs after the other couplings (it reads their end-of-step fields)."""
 
@@ -53,8 +60,10 @@ class ForceLog(Coupling):
                       if config.grid.boundary[name] != "free"]
         self.fem_supported = []
         self.pair = np.zeros((n, n, kf.PAIR_WIDTH))
-        self.face = np.zeros((6, 3))
+        self.face = np.zeros((6, kf.FACE_WIDTH))
         self.support = np.zeros((n, 3))
+        self.dissipated_pair = np.zeros((n, n))
+        self.dissipated_face = np.zeros(6)
         self.since = 0.0                    # the time of the previous history row
         self.zones = {}
         self.zone_keys = {}
@@ -110,13 +119,17 @@ class ForceLog(Coupling):
                                         self.pair)
 
     # -- from the other couplings and the FEM bodies ---------------------------------
-    def surface_pairs(self, first, second, impulses, normals):
+    def surface_pairs(self, first, second, impulses, normals, relative, inverse_mass):
         """Pair k gave body ``first[k]`` -impulses[k] and body ``second[k]`` (the owner
-        of the face with outward normal ``normals[k]``) +impulses[k]."""
+        of the face with outward normal ``normals[k]``) +impulses[k]; ``relative[k]``
+        is the first body's velocity less the face point's before the impulse and
+        ``inverse_mass[k]`` the pair's (:func:`pmpm.kernels.forces.surface_pair_work`)."""
         if len(impulses):
+            impulses = np.ascontiguousarray(impulses, np.float64)
+            work = kf.surface_pair_work(impulses, relative, inverse_mass)
             kf.pair_impulses(np.asarray(first, np.int64), np.asarray(second, np.int64),
-                             np.ascontiguousarray(impulses, np.float64),
-                             np.ascontiguousarray(normals, np.float64), self.pair)
+                             impulses, np.ascontiguousarray(normals, np.float64),
+                             np.ascontiguousarray(work), self.pair)
 
     def node_reactions(self, body, on_support, impulses, face_of):
         """FE nodes' impulses from their constraints (``on_support``, to their body) and
@@ -134,10 +147,12 @@ class ForceLog(Coupling):
         value, in the column order of :meth:`columns`; the accumulators restart."""
         sums = self.world.sum(np.concatenate([self.pair.ravel(), self.face.ravel(),
                                               self.support.ravel()]))
-        n = len(self.names)
+        n, end = len(self.names), self.pair.size + self.face.size
         pair = sums[:self.pair.size].reshape(self.pair.shape)
-        face = sums[self.pair.size:self.pair.size + 18].reshape(6, 3)
-        support = sums[self.pair.size + 18:].reshape(n, 3)
+        face = sums[self.pair.size:end].reshape(self.face.shape)
+        support = sums[end:].reshape(n, 3)
+        self.dissipated_pair += pair[:, :, 7]
+        self.dissipated_face += face[:, 3]
         span = time - self.since
         scale = 1.0 / span if span > 0.0 else 0.0
         values = []
@@ -147,14 +162,24 @@ class ForceLog(Coupling):
                 row[3] = pair[b, a, 3]
             values += [*row[:3], row[3], float(np.linalg.norm(row[4:7]))]
         for f in self.faces:
-            values += list(face[f])
+            values += list(face[f, :3])
         for b in self.fem_supported:
             values += list(support[b])
+        scaled = [scale * v for v in values]
+        for a, b in self.pairs():
+            scaled.append(self.dissipated_pair[a, b] + self.dissipated_pair[b, a])
+        scaled += [self.dissipated_face[f] for f in self.faces]
         self.pair[:] = 0.0
         self.face[:] = 0.0
         self.support[:] = 0.0
         self.since = time
-        return [scale * v for v in values]
+        return scaled
+
+    @property
+    def dissipated(self):
+        """The energy contact, friction and the faces have dissipated since the start
+        (at the last row; the same on every rank)."""
+        return float(self.dissipated_pair.sum() + self.dissipated_face.sum())
 
     def pairs(self):
         n = len(self.names)
@@ -170,7 +195,8 @@ class ForceLog(Coupling):
             cols += [f"{FACE_NAMES[f]}.{c}" for c in ("fx", "fy", "fz")]
         for b in self.fem_supported:
             cols += [f"{self.names[b]}.support.{c}" for c in ("fx", "fy", "fz")]
-        return cols
+        cols += [f"{self.names[a]}/{self.names[b]}.dissipated" for a, b in self.pairs()]
+        return cols + [f"{FACE_NAMES[f]}.dissipated" for f in self.faces]
 
     # -- restart ---------------------------------------------------------------------
     def state(self):
@@ -178,15 +204,21 @@ class ForceLog(Coupling):
         restart on any number of ranks continues the interval."""
         return {"since": self.since, "pair": self.world.sum(self.pair).tolist(),
                 "face": self.world.sum(self.face).tolist(),
-                "support": self.world.sum(self.support).tolist()}
+                "support": self.world.sum(self.support).tolist(),
+                "dissipated_pair": self.dissipated_pair.tolist(),
+                "dissipated_face": self.dissipated_face.tolist()}
 
     def restore(self, state):
-        """Rank 0 takes the saved sums, the others start from zero."""
+        """Rank 0 takes the saved sums, the others start from zero; every rank takes
+        the energies dissipated so far."""
         if state:
             self.since = state["since"]
+            self.dissipated_pair[:] = state.get("dissipated_pair", 0.0)
+            self.dissipated_face[:] = state.get("dissipated_face", 0.0)
             if self.world.is_root:
                 self.pair[:] = state["pair"]
-                self.face[:] = state["face"]
+                face = np.asarray(state["face"])      # 3 wide before the energies
+                self.face[:, :face.shape[1]] = face
                 self.support[:] = state["support"]
 
 

@@ -233,14 +233,17 @@ class NodeContact(Coupling):
         lent = np.zeros(len(fem.x))
         lent[pair_n] = self.inv_m[pair_n] * slave_phi
         impulses, depth = np.zeros((len(pair_n), 3)), np.zeros(len(pair_n))
+        seg_lent = segs["inv_m"] * seg_phi
         knc.node_pair_impulses(pair_n, pair_s, geo, lent, fem.v, self.node_body,
-                               segs["v"], segs["inv_m"] * seg_phi, segs["body"],
+                               segs["v"], seg_lent, segs["body"],
                                self.friction, dt, impulses, depth)
+        if self.force_log is not None:       # before the pushes change the velocities
+            self.force_log.surface_pairs(
+                self.node_body[pair_n], segs["body"][pair_s], impulses, geo[:, 2:5],
+                fem.v[pair_n] - np.einsum("kj,kjd->kd", phi, segs["v"][pair_s]),
+                lent[pair_n] + np.einsum("kj,kj->k", phi, seg_lent[pair_s]))
         shifts = GAP_CLOSURE * np.maximum(depth, 0.0)[:, None] * geo[:, 2:5]
         self.push_nodes(segs, pair_n, pair_s, phi, impulses, shifts, dt)
-        if self.force_log is not None:
-            self.force_log.surface_pairs(self.node_body[pair_n], segs["body"][pair_s],
-                                         impulses, geo[:, 2:5])
         self.last_pairs = int(np.count_nonzero(depth >= 0.0))
         self.largest_penetration = float(-geo[:, 5].min()) if len(geo) else 0.0
         self.deepest = max(self.deepest, self.largest_penetration)

@@ -311,6 +311,7 @@ class Runner:
                 f"a material value, load or velocity overflows double precision")
         log = self.sim.force_log
         forces = log.take_row(self.sim.time) if log else None
+        e["dissipated"] = log.dissipated if log else float("nan")
         self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
             self.config.gravity), self.world.sum(self.local_load_work))
         fault = self.watch.fault_line(self.sim.time)
@@ -322,7 +323,7 @@ class Runner:
             rows = {name: s["centroid"] + s["velocity"] + body_energies(s)
                     for name, s in stats.items()}
             self.history.row(self.sim.step_count, self.sim.time, dt,
-                             (e["kinetic"], e["internal"], e["total"]), rows)
+                             (e["kinetic"], e["internal"], e["total"], e["dissipated"]), rows)
         if forces is not None:
             if self.forces_writer:
                 self.forces_writer.row(self.sim.step_count, self.sim.time, forces)

@@ -219,16 +219,20 @@ class SurfaceContact(Coupling):
                               p.body.astype(np.int64), segs["v"][pair_s], lent, bodies,
                               self.friction, impulses)
         else:
+            lent = lent_inv_m[pair_s]
             ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
                               segs["v"], lent_inv_m, segs["body"], self.friction, impulses)
+        if self.force_log is not None:       # before the pushes change the velocities
+            self.force_log.surface_pairs(
+                p.body[pair_p], bodies, impulses, geo[:, 2:5],
+                p.v[pair_p] - v_c[approach],
+                1.0 / p.mass[pair_p] + np.einsum("kj,kj->k", phi, lent))
         lift = np.zeros(len(found_p))
         lift[approach] = self.push_particles(pair_p, geo, impulses, dt)
         self.close_gaps(found_p, found_geo, lift)
         self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
         if rigid is not None:
             rigid.take_impulses(self.elements, bodies, p.id[pair_p], impulses, dt)
-        if self.force_log is not None:
-            self.force_log.surface_pairs(p.body[pair_p], bodies, impulses, geo[:, 2:5])
         self.last_pairs = len(pair_p)
 
     def close_gaps(self, pair_p, geo, lift):
