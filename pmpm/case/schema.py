@@ -116,12 +116,14 @@ OUTPUT = {
                            "is exact either way"),
     "forces": Field(boolean(), True,
                     doc="write forces.csv at every history row: the contact force on each "
-                        "body from each other body (x, y, z, normal, tangential) and the "
-                        "energy their contact has dissipated since the start, the "
+                        "body from each other body (x, y, z, normal, tangential), the "
                         "reaction of each constrained grid face and of each FEM body's "
                         "constrained nodes, as the mean force since the previous row "
                         "(force units: g mm/ms^2 = N in mm-ms-g), so that a column "
-                        "integrated over time is the impulse"),
+                        "integrated over time is the impulse; and per pair and face the "
+                        "energy its friction has dissipated since the start, summed in "
+                        "history.csv's dissipated (false: neither is measured; "
+                        "dissipated reads NaN)"),
     "every": Field(number(greater(0)), None, "ms",
                    "a frame at every multiple of this time, besides `frames` (given "
                    "without `frames`, only these and the final frame are written)"),
