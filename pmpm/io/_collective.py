@@ -159,6 +159,24 @@ def write_rows(dset, start, rows, dxpl):
     dset.id.write(mspace, fspace, rows, dxpl=dxpl)
 
 
+def write_row_ranges(dset, starts, counts, rows, dxpl):
+    """Write this rank's ``rows`` into the file row ranges ``[starts[k], starts[k] + counts[k])``
+    in one collective call: the ranges must be increasing and disjoint, and ``rows`` holds
+    ``sum(counts)`` rows, range after range (HDF5 fills a union of hyperslabs in file
+    order). A rank with no rows still takes part."""
+    trailing = dset.shape[1:]
+    ranges = [(int(s), int(c)) for s, c in zip(starts, counts) if c > 0]
+    if not ranges:
+        write_rows(dset, 0, np.zeros((0,) + trailing, dtype=dset.dtype), dxpl)
+        return
+    rows = np.ascontiguousarray(rows, dtype=dset.dtype)
+    fspace = dset.id.get_space()
+    for k, (start, count) in enumerate(ranges):
+        fspace.select_hyperslab((start,) + (0,) * len(trailing), (count,) + trailing,
+                                op=h5s.SELECT_SET if k == 0 else h5s.SELECT_OR)
+    dset.id.write(h5s.create_simple(rows.shape), fspace, rows, dxpl=dxpl)
+
+
 def read_rows(dset, start, count, dxpl):
     """Read ``count`` rows from global row ``start``; ``count == 0`` still takes part."""
     trailing = dset.shape[1:]
