@@ -8,7 +8,9 @@ Notes
 Rows are laid out rank after rank: rank r writes rows ``[offset_r, offset_r + n_r)`` with
 ``offset_r = n_0 + ... + n_(r-1)`` (an exclusive scan of the counts). The counts travel in
 the same gather/broadcast that checks the column names, dtypes and trailing shapes, so one
-frame costs two small collectives before the data transfer. Data transfers use collective
+frame costs two small collectives before the data transfer. A writer with its own layout
+(the particle frames group rows by body) writes with :func:`write_row_ranges`: each rank's
+rows go into several file ranges in one collective call. Data transfers use collective
 MPI-IO; a rank with no rows selects nothing in the file and in memory but still calls
 ``H5Dwrite``/``H5Dread``, as collective mode requires (h5py's slicing skips the call for an
 empty selection, which would hang the other ranks, so the low-level API is used).
