@@ -15,7 +15,7 @@ from pmpm.io import (HistoryWriter, ParticleWriter, latest_checkpoint, load_chec
                      save_checkpoint, write_summary)
 from pmpm.io.checkpoint import list_checkpoints
 from pmpm.io.summary import read_summary, validate_summary
-from pmpm.io.xdmf import number_type
+from pmpm.io.xdmf import number_type, xdmf_text
 from xdmfread import dims, grid_arrays
 
 COMM = MPI.COMM_SELF
@@ -144,6 +144,9 @@ def test_restart_drops_later_frames(tmp_path):
     root = ET.parse(tmp_path / "particles.xdmf").getroot()
     times = [float(t.get("Value")) for t in root.iter("Time")]
     assert times == [0.0, 0.1, 0.15]
+    # the writer builds each frame's element once; the document is the one of all frames
+    assert (tmp_path / "particles.xdmf").read_text() == \
+        xdmf_text("particles.h5", writer.frames, BODIES)
 
 
 def test_columns_of_different_lengths_are_refused(tmp_path):

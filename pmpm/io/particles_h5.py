@@ -24,8 +24,8 @@ import h5py
 import numpy as np
 
 from . import _collective as C
-from ._files import dumps
-from .xdmf import topology_path, write_xdmf
+from ._files import atomic_write_text, dumps
+from .xdmf import frame_text, topology_path, xdmf_document
 
 STRESS_COMPONENTS = "xx,yy,zz,xy,yz,zx"
 #: Columns every frame holds under the run contract, with their shape after the first axis.
@@ -131,7 +131,7 @@ class ParticleWriter:
         self.xdmf_path = os.path.splitext(self.path)[0] + ".xdmf"
         self.comm, self.xdmf = comm, xdmf
         self.body_names = []
-        self._frames = []
+        self._frames, self._texts = [], []
         os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
         mode = "w" if restart_frame is None else "r+"
         self._file = h5py.File(self.path, mode, driver="mpio", comm=comm)
@@ -175,6 +175,7 @@ class ParticleWriter:
         for name in names[keep:]:
             del frames[name]
         self._frames = [self._record(frames[name]) for name in names[:keep]]
+        self._texts = []
         self._file.attrs["frames"] = keep
 
     @staticmethod
@@ -184,7 +185,8 @@ class ParticleWriter:
         n = int(group.attrs["n"])
         counts = group.attrs.get("body_counts")
         return {"group": group.name, "time": float(group.attrs["time"]), "n": n,
-                "step": int(group.attrs["step"]), "columns": columns, "topology": topology_path(n),
+                "step": int(group.attrs["step"]), "columns": columns,
+                "topology": topology_path(n),
                 "body_counts": None if counts is None else [int(c) for c in counts]}
 
     def write_frame(self, time, step, columns):
@@ -258,9 +260,13 @@ class ParticleWriter:
         C.write_rows(dset, start, np.arange(start, start + count, dtype=dtype), C.collective_xfer())
 
     def _write_xdmf(self):
-        if self.xdmf and self.comm.rank == 0:
-            write_xdmf(self.xdmf_path, os.path.basename(self.path), self._frames,
-                       body_names=self.body_names)
+        """Rewrite the XDMF (rank 0), building the elements of the frames not yet in it."""
+        if not (self.xdmf and self.comm.rank == 0):
+            return
+        h5_name = os.path.basename(self.path)
+        self._texts += [frame_text(h5_name, frame, self.body_names)
+                        for frame in self._frames[len(self._texts):]]
+        atomic_write_text(self.xdmf_path, xdmf_document(self._texts))
 
     def close(self, run_stats=None):
         """Store the run statistics and close the file (collective; safe to call twice).

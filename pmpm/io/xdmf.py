@@ -200,9 +200,20 @@ def _frame(h5_name, frame, names, indent):
     return _grid(h5_name, frame, indent)
 
 
+def frame_text(h5_name, frame, body_names=()):
+    """The XDMF element of one frame (see :func:`write_xdmf`): a writer keeps it, so that
+    rewriting the document after each frame does not rebuild the earlier ones."""
+    return _frame(h5_name, frame, list(body_names), "      ")
+
+
 def xdmf_text(h5_name, frames, body_names=()):
     """The XDMF document for ``frames`` (see :func:`write_xdmf`) as a string."""
-    grids = "".join(_frame(h5_name, frame, list(body_names), "      ") for frame in frames)
+    return xdmf_document([frame_text(h5_name, frame, body_names) for frame in frames])
+
+
+def xdmf_document(frame_texts):
+    """The XDMF document around the frames' elements (:func:`frame_text`), in time order."""
+    grids = "".join(frame_texts)
     return ('<?xml version="1.0" encoding="utf-8"?>\n'
             '<Xdmf Version="3.0" xmlns:xi="http://www.w3.org/2001/XInclude">\n'
             "  <Domain>\n"
