@@ -15,7 +15,8 @@ from pmpm.io import (HistoryWriter, ParticleWriter, latest_checkpoint, load_chec
                      save_checkpoint, write_summary)
 from pmpm.io.checkpoint import list_checkpoints
 from pmpm.io.summary import read_summary, validate_summary
-from pmpm.io.xdmf import number_type
+from pmpm.io.xdmf import number_type, xdmf_text
+from xdmfread import dims, grid_arrays
 
 COMM = MPI.COMM_SELF
 CASE = "name: test\nparams: {cell: 0.5}\n"
@@ -55,9 +56,13 @@ def test_frames_round_trip(tmp_path):
             assert (group.attrs["time"], group.attrs["step"]) == (time, step)
             assert group["stress"].attrs["components"] == "xx,yy,zz,xy,yz,zx"
             assert list(group) == list(columns)
+            # rows body-major: on one rank, the given rows stably sorted by body
+            order = np.argsort(columns["body"], kind="stable")
+            np.testing.assert_array_equal(group.attrs["body_counts"],
+                                          np.bincount(columns["body"], minlength=2))
             for name, array in columns.items():
                 assert group[name].dtype == array.dtype
-                np.testing.assert_array_equal(group[name][()], array)
+                np.testing.assert_array_equal(group[name][()], array[order])
 
 
 def test_empty_frame_is_written_and_listed_in_the_xdmf_without_data(tmp_path):
@@ -70,53 +75,61 @@ def test_empty_frame_is_written_and_listed_in_the_xdmf_without_data(tmp_path):
         assert f["frames/000001"].attrs["n"] == 0
     grids = ET.parse(tmp_path / "particles.xdmf").getroot().findall("./Domain/Grid/Grid")
     assert [g.find("Time").get("Value") for g in grids] == ["0.0", "1.0", "2.0"]
-    assert [g.get("GridType") for g in grids] == ["Uniform", "Collection", "Uniform"]
-    assert grids[1].get("CollectionType") == "Spatial" and len(list(grids[1])) == 1
-
-
-def _dims(item):
-    return tuple(int(d) for d in item.get("Dimensions").split())
+    assert [(g.get("GridType"), g.get("CollectionType")) for g in grids] == \
+        [("Collection", "Spatial")] * 3
+    assert len(list(grids[1])) == 1                    # the empty frame: only its time
+    assert all(grids[k].findall("Grid") for k in (0, 2))
 
 
 def test_xdmf_references_existing_datasets(tmp_path):
+    """Every frame is a Spatial collection of one grid per body, named after it, whose
+    items resolve to exactly that body's rows of the frame."""
     frames = [(0.0, 0, particle_columns(4)), (0.5, 10, particle_columns(6, seed=3))]
     write_frames(tmp_path, frames).close()
     root = ET.parse(tmp_path / "particles.xdmf").getroot()
     collection = root.find("./Domain/Grid")
     assert collection.get("CollectionType") == "Temporal"
-    grids = collection.findall("Grid")
-    assert [float(g.find("Time").get("Value")) for g in grids] == [0.0, 0.5]
+    steps = collection.findall("Grid")
+    assert [float(g.find("Time").get("Value")) for g in steps] == [0.0, 0.5]
     with h5py.File(tmp_path / "particles.h5", "r") as f:
-        for grid, (_, _, columns) in zip(grids, frames):
-            n = len(columns["x"])
-            topology = grid.find("Topology")
-            assert topology.get("TopologyType") == "Polyvertex"
-            assert int(topology.get("NumberOfElements")) == n
-            for item in grid.iter("DataItem"):
-                if item.get("Format") != "HDF":
-                    continue
-                h5_name, path = item.text.split(":")
-                assert h5_name == "particles.h5"
-                assert _dims(item) == f[path].shape
-                kind = (item.get("NumberType"), int(item.get("Precision")))
-                assert kind == number_type(f[path].dtype)
-            indices = f[topology.find("DataItem").text.split(":")[1]][()]
-            np.testing.assert_array_equal(indices, np.arange(n))
-            names = {a.get("Name"): a.get("AttributeType") for a in grid.findall("Attribute")}
-            assert names["v"] == "Vector" and names["F"] == "Tensor" and names["id"] == "Scalar"
-            assert all(names[s] == "Scalar" for s in ("sxx", "syy", "szz", "sxy", "syz", "szx"))
+        for step, (_, _, columns) in zip(steps, frames):
+            present = np.unique(columns["body"])
+            grids = step.findall("Grid")
+            assert [g.get("Name") for g in grids] == [BODIES[b] for b in present]
+            for grid, b in zip(grids, present):
+                mine = columns["body"] == b
+                assert grid.find("Topology").get("TopologyType") == "Polyvertex"
+                for item in grid.iter("DataItem"):
+                    if item.get("Format") == "HDF":
+                        path = item.text.split(":")[1]
+                        kind = (item.get("NumberType"), int(item.get("Precision")))
+                        assert kind == number_type(f[path].dtype)
+                arrays = grid_arrays(grid, f)
+                np.testing.assert_array_equal(arrays["topology"], np.arange(mine.sum()))
+                np.testing.assert_array_equal(arrays["geometry"], columns["x"][mine])
+                np.testing.assert_array_equal(arrays["id"], columns["id"][mine])
+                np.testing.assert_array_equal(arrays["F"], columns["F"][mine])
+                kinds = {a.get("Name"): a.get("AttributeType") for a in grid.findall("Attribute")}
+                assert kinds["v"] == "Vector" and kinds["F"] == "Tensor" and kinds["id"] == "Scalar"
+                for k, name in enumerate(("sxx", "syy", "szz", "sxy", "syz", "szx")):
+                    assert kinds[name] == "Scalar"
+                    np.testing.assert_array_equal(arrays[name], columns["stress"][mine, k])
 
 
 def test_xdmf_stress_scalars_select_their_column(tmp_path):
-    write_frames(tmp_path, [(0.0, 0, particle_columns(5))]).close()
-    grid = ET.parse(tmp_path / "particles.xdmf").getroot().find("./Domain/Grid/Grid")
-    for k, name in enumerate(("sxx", "syy", "szz", "sxy", "syz", "szx")):
-        slab = grid.find(f"./Attribute[@Name='{name}']/DataItem")
-        assert slab.get("ItemType") == "HyperSlab" and _dims(slab) == (5, 1)
-        selector, source = slab.findall("DataItem")
-        start, stride, count = np.array(selector.text.split(), dtype=int).reshape(3, 2)
-        assert (tuple(start), tuple(stride), tuple(count)) == ((0, k), (1, 1), (5, 1))
-        assert source.text.endswith("/frames/000000/stress")
+    columns = particle_columns(5)
+    write_frames(tmp_path, [(0.0, 0, columns)]).close()
+    counts = np.bincount(columns["body"], minlength=2)
+    assert counts.min() > 0
+    grids = ET.parse(tmp_path / "particles.xdmf").getroot().findall("./Domain/Grid/Grid/Grid")
+    for grid, first, count in zip(grids, (0, counts[0]), counts):
+        for k, name in enumerate(("sxx", "syy", "szz", "sxy", "syz", "szx")):
+            slab = grid.find(f"./Attribute[@Name='{name}']/DataItem")
+            assert slab.get("ItemType") == "HyperSlab" and dims(slab) == (count, 1)
+            selector, source = slab.findall("DataItem")
+            start, stride, size = np.array(selector.text.split(), dtype=int).reshape(3, 2)
+            assert (tuple(start), tuple(stride), tuple(size)) == ((first, k), (1, 1), (count, 1))
+            assert source.text.endswith("/frames/000000/stress") and dims(source) == (5, 6)
 
 
 def test_restart_drops_later_frames(tmp_path):
@@ -131,6 +144,9 @@ def test_restart_drops_later_frames(tmp_path):
     root = ET.parse(tmp_path / "particles.xdmf").getroot()
     times = [float(t.get("Value")) for t in root.iter("Time")]
     assert times == [0.0, 0.1, 0.15]
+    # the writer builds each frame's element once; the document is the one of all frames
+    assert (tmp_path / "particles.xdmf").read_text() == \
+        xdmf_text("particles.h5", writer.frames, BODIES)
 
 
 def test_columns_of_different_lengths_are_refused(tmp_path):

@@ -8,7 +8,9 @@ Notes
 Rows are laid out rank after rank: rank r writes rows ``[offset_r, offset_r + n_r)`` with
 ``offset_r = n_0 + ... + n_(r-1)`` (an exclusive scan of the counts). The counts travel in
 the same gather/broadcast that checks the column names, dtypes and trailing shapes, so one
-frame costs two small collectives before the data transfer. Data transfers use collective
+frame costs two small collectives before the data transfer. A writer with its own layout
+(the particle frames group rows by body) writes with :func:`write_row_ranges`: each rank's
+rows go into several file ranges in one collective call. Data transfers use collective
 MPI-IO; a rank with no rows selects nothing in the file and in memory but still calls
 ``H5Dwrite``/``H5Dread``, as collective mode requires (h5py's slicing skips the call for an
 empty selection, which would hang the other ranks, so the low-level API is used).
@@ -157,6 +159,24 @@ def write_rows(dset, start, rows, dxpl):
         rows = np.ascontiguousarray(rows, dtype=dset.dtype)
         fspace, mspace = _selection(dset, start, rows.shape)
     dset.id.write(mspace, fspace, rows, dxpl=dxpl)
+
+
+def write_row_ranges(dset, starts, counts, rows, dxpl):
+    """Write this rank's ``rows`` into the file row ranges ``[starts[k], starts[k] + counts[k])``
+    in one collective call: the ranges must be increasing and disjoint, and ``rows`` holds
+    ``sum(counts)`` rows, range after range (HDF5 fills a union of hyperslabs in file
+    order). A rank with no rows still takes part."""
+    trailing = dset.shape[1:]
+    ranges = [(int(s), int(c)) for s, c in zip(starts, counts) if c > 0]
+    if not ranges:
+        write_rows(dset, 0, np.zeros((0,) + trailing, dtype=dset.dtype), dxpl)
+        return
+    rows = np.ascontiguousarray(rows, dtype=dset.dtype)
+    fspace = dset.id.get_space()
+    for k, (start, count) in enumerate(ranges):
+        fspace.select_hyperslab((start,) + (0,) * len(trailing), (count,) + trailing,
+                                op=h5s.SELECT_SET if k == 0 else h5s.SELECT_OR)
+    dset.id.write(h5s.create_simple(rows.shape), fspace, rows, dxpl=dxpl)
 
 
 def read_rows(dset, start, count, dxpl):

@@ -5,13 +5,18 @@ File layout::
     /                     attrs: frames (count), body_names, ranks, software, run_stats
                                  (JSON, at close), and the caller's attrs
     /case                 scalar UTF-8 string: the case file text
-    /frames/000000        attrs: time, step, n (global particle count)
+    /frames/000000        attrs: time, step, n (global particle count),
+                                 body_counts (particles of each body, in body index order)
         x (n,3) v (n,3) stress (n,6; attr components = "xx,yy,zz,xy,yz,zx")
         eps_p density mass (n,) body (n,) int32  id (n,) int64  [extra columns]
     /xdmf/polyvertex_N    int32 0 .. N-1: Polyvertex connectivity for the XDMF
 
-Rows of a frame are the ranks' local particles one rank after another (see
-:mod:`pmpm.io._collective`); sort by ``id`` to follow particles between frames.
+Rows of a frame are body-major: all of body 0's particles (rank 0's, then rank 1's, ...),
+then body 1's, and so on, so body ``b`` holds rows ``sum(body_counts[:b])`` onwards,
+``body_counts[b]`` of them. The XDMF shows each body as a block named after it by
+selecting its range (:mod:`pmpm.io.xdmf`), without a copy of the data. Within a body the
+order depends on the ranks: sort by ``id`` to follow particles between frames. (Files
+written before ``body_counts`` existed hold the ranks' rows one rank after another.)
 """
 import os
 
@@ -19,8 +24,8 @@ import h5py
 import numpy as np
 
 from . import _collective as C
-from ._files import dumps
-from .xdmf import topology_path, write_xdmf
+from ._files import atomic_write_text, dumps
+from .xdmf import frame_text, topology_path, xdmf_document
 
 STRESS_COMPONENTS = "xx,yy,zz,xy,yz,zx"
 #: Columns every frame holds under the run contract, with their shape after the first axis.
@@ -35,6 +40,45 @@ def _contract_problems(layout):
     wrong = [f"{name} has rows of shape {shapes[name]}, expected {shape}"
              for name, shape in CONTRACT_COLUMNS.items() if name in shapes and shapes[name] != shape]
     return ([f"missing columns {missing}"] if missing else []) + wrong
+
+
+def body_blocks(comm, body, n_names):
+    """Rows of each body on each rank, an int64 array (ranks, bodies), the same on every
+    rank (one allgather); at least ``n_names`` bodies wide.
+
+    Raises
+    ------
+    ValueError
+        On every rank alike, when a rank's ``body`` column holds a negative index.
+    """
+    body = np.asarray(body)
+    negative = bool(body.size) and int(body.min()) < 0
+    local = np.zeros(0, np.int64) if negative else np.bincount(body, minlength=n_names)
+    gathered = comm.allgather((negative, local))
+    bad = [rank for rank, (neg, _) in enumerate(gathered) if neg]
+    if bad:
+        raise ValueError(f"frame column 'body' holds negative body indices on ranks {bad}")
+    width = max([n_names] + [len(counts) for _, counts in gathered])
+    return np.array([np.pad(counts, (0, width - len(counts))) for _, counts in gathered],
+                    dtype=np.int64)
+
+
+def body_ranges(blocks, rank):
+    """(first file row, row count) of each body's rows of ``rank``, in body order, for the
+    body-major layout of :func:`body_blocks`' counts."""
+    totals = blocks.sum(axis=0)
+    body_start = np.concatenate([[0], np.cumsum(totals)[:-1]])
+    return body_start + blocks[:rank].sum(axis=0), blocks[rank]
+
+
+def by_body(columns, body):
+    """``columns`` with their rows sorted by ``body`` (stable: the local order within a
+    body is kept); the columns themselves when they already are."""
+    body = np.asarray(body)
+    if body.size < 2 or bool(np.all(body[:-1] <= body[1:])):
+        return columns
+    order = np.argsort(body, kind="stable")
+    return {name: np.asarray(array)[order] for name, array in columns.items()}
 
 
 def _attr_value(value):
@@ -86,7 +130,8 @@ class ParticleWriter:
         self.path = path if path.endswith(".h5") else os.path.join(path, "particles.h5")
         self.xdmf_path = os.path.splitext(self.path)[0] + ".xdmf"
         self.comm, self.xdmf = comm, xdmf
-        self._frames = []
+        self.body_names = []
+        self._frames, self._texts = [], []
         os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
         mode = "w" if restart_frame is None else "r+"
         self._file = h5py.File(self.path, mode, driver="mpio", comm=comm)
@@ -101,11 +146,13 @@ class ParticleWriter:
 
     @property
     def frames(self):
-        """Per-frame records ``{group, time, n, columns, topology}`` as given to the XDMF."""
+        """Per-frame records ``{group, time, n, columns, topology, body_counts}`` as given
+        to the XDMF (``body_counts`` None for a frame written rank after rank)."""
         return list(self._frames)
 
     def _write_header(self, case_text, attrs):
         f = self._file
+        self.body_names = [str(name) for name in attrs.get("body_names", [])]
         for key, value in attrs.items():
             f.attrs[key] = _attr_value(value)
         f.attrs["ranks"] = self.comm.size
@@ -128,6 +175,7 @@ class ParticleWriter:
         for name in names[keep:]:
             del frames[name]
         self._frames = [self._record(frames[name]) for name in names[:keep]]
+        self._texts = []
         self._file.attrs["frames"] = keep
 
     @staticmethod
@@ -135,8 +183,11 @@ class ParticleWriter:
         columns = {name: (d.dtype.str, int(np.prod(d.shape[1:], dtype=int)))
                    for name, d in group.items()}
         n = int(group.attrs["n"])
+        counts = group.attrs.get("body_counts")
         return {"group": group.name, "time": float(group.attrs["time"]), "n": n,
-                "step": int(group.attrs["step"]), "columns": columns, "topology": topology_path(n)}
+                "step": int(group.attrs["step"]), "columns": columns,
+                "topology": topology_path(n),
+                "body_counts": None if counts is None else [int(c) for c in counts]}
 
     def write_frame(self, time, step, columns):
         """Write one frame of every rank's local particles (collective).
@@ -151,7 +202,8 @@ class ParticleWriter:
             Local particle columns, first axis = particle: ``x`` (n,3), ``v`` (n,3),
             ``stress`` (n,6, Voigt xx,yy,zz,xy,yz,zx), ``eps_p``, ``density``, ``mass`` (n,),
             ``body`` (n,) int32, ``id`` (n,) int64, and any extra 1D or 2D columns. All
-            ranks pass the same names; ranks with n = 0 pass empty arrays.
+            ranks pass the same names; ranks with n = 0 pass empty arrays. Rows are
+            stored body-major (module notes), whatever their order here.
 
         Returns
         -------
@@ -162,26 +214,40 @@ class ParticleWriter:
         ------
         ValueError
             On every rank alike, before anything is written, when a contract column is
-            missing or misshapen or the ranks disagree on the columns.
+            missing or misshapen, the ranks disagree on the columns, or a body index is
+            negative.
         """
         layout = C.agree_layout(self.comm, columns)
         problems = _contract_problems(layout)
         if problems:
             raise ValueError("frame columns: " + "; ".join(problems))
+        blocks = body_blocks(self.comm, columns["body"], len(self.body_names))
+        columns = by_body(columns, columns["body"])
         time, step = C.bcast_root(self.comm, (float(time), int(step)))
         index = len(self._frames)
         group = self._file["frames"].create_group(f"{index:06d}", track_order=True)
-        group.attrs.update({"time": time, "step": step, "n": layout.total})
+        group.attrs.update({"time": time, "step": step, "n": layout.total,
+                            "body_counts": blocks.sum(axis=0)})
         datasets = C.create_columns(group, layout)
         if "stress" in datasets:
             datasets["stress"].attrs["components"] = STRESS_COMPONENTS
-        C.write_columns(datasets, layout, self.comm.rank, columns)
+        self._write_rows(datasets, layout, blocks, columns)
         self._require_topology(layout)
         self._file.attrs["frames"] = index + 1
         self._file.flush()
         self._frames.append(self._record(group))
         self._write_xdmf()
         return index
+
+    def _write_rows(self, datasets, layout, blocks, columns):
+        """Every column's rows of this rank into its bodies' ranges: one collective write
+        per column (``columns`` sorted by body)."""
+        if layout.total == 0:
+            return
+        starts, counts = body_ranges(blocks, self.comm.rank)
+        dxpl = C.collective_xfer()
+        for spec in layout.specs:
+            C.write_row_ranges(datasets[spec.name], starts, counts, columns[spec.name], dxpl)
 
     def _require_topology(self, layout):
         """Write ``/xdmf/polyvertex_N`` (indices 0 .. N-1) once per distinct count N."""
@@ -194,8 +260,13 @@ class ParticleWriter:
         C.write_rows(dset, start, np.arange(start, start + count, dtype=dtype), C.collective_xfer())
 
     def _write_xdmf(self):
-        if self.xdmf and self.comm.rank == 0:
-            write_xdmf(self.xdmf_path, os.path.basename(self.path), self._frames)
+        """Rewrite the XDMF (rank 0), building the elements of the frames not yet in it."""
+        if not (self.xdmf and self.comm.rank == 0):
+            return
+        h5_name = os.path.basename(self.path)
+        self._texts += [frame_text(h5_name, frame, self.body_names)
+                        for frame in self._frames[len(self._texts):]]
+        atomic_write_text(self.xdmf_path, xdmf_document(self._texts))
 
     def close(self, run_stats=None):
         """Store the run statistics and close the file (collective; safe to call twice).
