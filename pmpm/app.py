@@ -119,7 +119,8 @@ def run_locked(world, args, out, config, case_text, case):
     #                checkpoint's FEM groups, whole): no rank keeps them for the run
     if size and not args.quiet:
         print(size, flush=True)
-    runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart, case=case)
+    runner = _set_up(lambda: Runner(sim, out, case_text, progress=not args.quiet,
+                                    restart=restart, case=case))    # probes check theirs
     runner.run(compile_s=compile_s, baseline_rss=baseline)
     return os.path.join(out, "summary.json")
 
