@@ -100,7 +100,7 @@ def run_locked(world, args, out, config, case_text, case):
         checkpoint = choose_checkpoint(world, out)
         case_text = check_restart_case(world, checkpoint, case, case_text)
     from .kernels.shape import SHAPE_CODES
-    from .kernels.warmup import warm_up
+    from .kernels.warmup import kernels_of, warm_up
     from .solver.memory import current_rss_bytes, return_freed_memory_to_os
     from .solver.progress import SlowNotice
     from .solver.run import Runner
@@ -108,18 +108,19 @@ def run_locked(world, args, out, config, case_text, case):
     before_setup = current_rss_bytes()
     setup = begin_set_up(world, config, args, checkpoint, out)
     before_compile = current_rss_bytes()
-    apic = config.time.transfer == "apic"
     with SlowNotice(f"compiling the {config.grid.shape_functions} kernels (the first run "
                     f"after an install or an edit: a few minutes; later runs load them)",
                     world.is_root and not args.quiet and config.output.progress):
-        compile_s = world.max(warm_up(SHAPE_CODES[config.grid.shape_functions], apic))
+        compile_s = world.max(warm_up(SHAPE_CODES[config.grid.shape_functions],
+                                      **kernels_of(config)))
     baseline = before_setup + current_rss_bytes() - before_compile
     sim, restart, size = setup()
     del setup      # its closure holds the whole meshes and every body's points (or the
     #                checkpoint's FEM groups, whole): no rank keeps them for the run
     if size and not args.quiet:
         print(size, flush=True)
-    runner = Runner(sim, out, case_text, progress=not args.quiet, restart=restart, case=case)
+    runner = _set_up(lambda: Runner(sim, out, case_text, progress=not args.quiet,
+                                    restart=restart, case=case))    # probes check theirs
     runner.run(compile_s=compile_s, baseline_rss=baseline)
     return os.path.join(out, "summary.json")
 

@@ -6,12 +6,15 @@ import os
 import numpy as np
 import pytest
 
-from clihelp import BAR, BAR_HALF_END, run_ok
+from clihelp import BAR, BAR_HALF_END, pmpm, run_ok
 from pmpm.io.derived import stress_invariants
 from pmpm.post import read_frame
 
 PROBES = "output.probes=[{name: tip, body: bar, point: [0, 0, 0]}, " \
-         "{name: top, body: bar, point: [1, 0, 6]}]"
+         "{name: top, body: bar, point: [1, 0, 6]}, {name: tagged, body: bar, id: 100}, " \
+         "{name: foot, body: bar, region: {min: [-4, -4, 0], max: [4, 4, 1.5]}}]"
+#: the bar's particles lie on a 0.5 mm lattice from 0.25: z = 1.5 falls between layers
+FOOT = (np.array([-4.0, -4.0, 0.0]), np.array([4.0, 4.0, 1.5]))
 
 
 def read_probe(out, name):
@@ -53,8 +56,46 @@ def test_a_probe_follows_the_particle_nearest_its_point(runs):
     assert tip[-1, 14] > 0.0              # the impact face has yielded
 
 
+def test_a_probe_by_id_follows_that_particle(runs):
+    last = read_frame(runs[1], -1)
+    k = int(np.flatnonzero(last["id"] == 100)[0])
+    rows = read_probe(runs[1], "tagged")[1]
+    assert np.array_equal(rows[-1, 2:14], np.concatenate([last["x"][k], last["v"][k],
+                                                          last["stress"][k]]))
+
+
+def test_a_region_probe_holds_the_mass_weighted_means_of_its_tagged_particles(runs):
+    """The bar's foot: the particles within 1.5 mm of the wall at the start, however they
+    spread, averaged by mass (von Mises: the mean of theirs), as the final frame gives."""
+    last = read_frame(runs[1], -1)
+    start = last["x"] - last["displacement"]
+    inside = np.all((start >= FOOT[0]) & (start <= FOOT[1]), axis=1)
+    assert inside.sum() == 3 * 52                  # three layers of 52 particles
+    m = last["mass"][inside]
+    pressure, von_mises = stress_invariants(last["stress"][inside])
+    columns = np.hstack([last["x"][inside], last["v"][inside], last["stress"][inside],
+                         last["eps_p"][inside][:, None], pressure[:, None],
+                         von_mises[:, None]])
+    rows = read_probe(runs[1], "foot")[1]
+    assert np.allclose(rows[-1, 2:], m @ columns / m.sum(), rtol=1e-12, atol=1e-9)
+    assert rows[-1, 14] > 0.0 and rows[0, 7] == pytest.approx(-100.0)
+
+
+@pytest.mark.parametrize("probe, message", [
+    ("{name: p, body: bar, id: 99999}", "output.probes[0].id: is no id of a particle of "
+                                        "body 'bar'"),
+    ("{name: p, body: bar, region: {min: [5, 5, 5], max: [6, 6, 6]}}",
+     "output.probes[0].region: selects no particle of body 'bar'"),
+    ("{name: p, body: bar, id: 3, point: [0, 0, 0]}",
+     "output.probes[0]: give exactly one of point, id and region"),
+    ("{name: p, body: bar, id: 3, fixed: true}", "output.probes[0].fixed: a fixed gauge")])
+def test_a_probe_that_samples_nothing_or_two_things_is_refused(tmp_path, probe, message):
+    done = pmpm([BAR, "--out", tmp_path, "--quiet", "--set", f"output.probes=[{probe}]"])
+    assert done.returncode == 2 and message in done.stderr, done.stderr
+
+
 def test_two_ranks_give_the_one_rank_probes(runs):
-    for name in ("tip", "top"):
+    for name in ("tip", "top", "tagged", "foot"):
         one, two = read_probe(runs[1], name)[1], read_probe(runs[2], name)[1]
         assert one.shape == two.shape
         assert np.allclose(one, two, rtol=1e-10, atol=1e-9)

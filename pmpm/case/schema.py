@@ -82,19 +82,33 @@ TIME = {
                        "so that a wrong speed or end time does not start a run that cannot "
                        "finish; raise it for a run meant to be that long"),
 }
+REGION = {"min": Field(vector(), unit="mm", doc="lower corner of the box"),
+          "max": Field(vector(), unit="mm", doc="upper corner of the box (min < max)")}
+
+
 PROBE = {
     "name": Field(Custom(_body_name, "string of letters, digits, _, -"),
                   doc="the probe's name: its history goes to probe_NAME.csv"),
     "body": Field(text(), doc="the body it samples: its particles, or an FEM body's "
                               "nodes (position and velocity; the stress columns read NaN)"),
-    "point": Field(vector(), unit="mm",
+    "point": Field(vector(), None, unit="mm",
                    doc="the body's particle (or FE node) nearest this point at the start is "
-                       "followed (ties: the lower id); the same on any number of ranks"),
+                       "followed (ties: the lower id); the same on any number of ranks. "
+                       "A probe names one of point, id and region"),
+    "id": Field(integer(at_least(0)), None,
+                doc="the id of the particle (or FE node) to follow, as in the frames' "
+                    "`id` column (or elements.h5's node ids)"),
+    "region": Field(mapping(REGION), None, unit="mm",
+                    doc="a tagged group: the body's particles (or FE nodes) inside this "
+                        "box at the start, wherever they go; the row holds their "
+                        "mass-weighted means (von_mises: the mean of their von Mises "
+                        "stresses)"),
     "fixed": Field(boolean(), False,
                    doc="true: a gauge fixed in space: at every history row the body's "
                        "particle (or FE node) nearest `point` then is sampled, instead of "
-                       "following one"),
+                       "following one (with point only)"),
 }
+PROBE_TARGETS = ("point", "id", "region")
 OUTPUT = {
     "frames": Field(integer(at_least(1)), 10,
                     doc="particle frames written after the initial one, equally spaced in "
@@ -175,10 +189,6 @@ TIME_FUNCTIONS = {
                          doc="factors at the times t: piecewise linear between them, held "
                              "at the end values outside them")},
 }
-REGION = {"min": Field(vector(), unit="mm", doc="lower corner of the box"),
-          "max": Field(vector(), unit="mm", doc="upper corner of the box (min < max)")}
-
-
 def _check_table(function, path, problems):
     """A table's t and f have the same length and t increases strictly."""
     if not valid(function, "t", "f"):
@@ -474,12 +484,27 @@ def _check_probes(case, body_names, problems):
     bodies = {b["name"]: b for b in case["bodies"] if valid(b, "name")} \
         if case["bodies"] is not INVALID else {}
     for i, probe in enumerate(probes):
+        _check_probe_target(probe, join("output.probes", i), problems)
         if not valid(probe, "body"):
             continue
         path = join(join("output.probes", i), "body")
         body = bodies.get(probe["body"])
         if body is None:
             problems.add(path, unknown_name("body", probe["body"], body_names))
+
+
+def _check_probe_target(probe, path, problems):
+    """A probe names exactly one of point, id and region; fixed goes with point."""
+    if probe is INVALID or not isinstance(probe, dict):
+        return
+    named = [key for key in PROBE_TARGETS if probe.get(key) is not None]
+    if len(named) != 1:
+        problems.add(path, f"give exactly one of point, id and region to say what the "
+                           f"probe samples, got {', '.join(named) if named else 'none'}")
+    if probe.get("fixed") is True and probe.get("point") is None:
+        problems.add(join(path, "fixed"), "a fixed gauge samples at `point`: give point")
+    if valid(probe, "region") and probe["region"] is not None:
+        check_min_below_max(probe["region"], join(path, "region"), problems)
 
 
 def _unique_names(items, section, problems):

@@ -25,10 +25,13 @@ def warm_up_defaults():
     return warm_up(LINEAR) + warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True)
 
 
-def warm_up(shape_code=LINEAR, apic=False):
+def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True):
     """Return the seconds spent compiling or loading the kernels (for the shape functions
     ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels;
-    with ``apic`` also the transfers' affine variants)."""
+    with ``apic`` also the transfers' affine variants). ``contact``, ``ties`` and
+    ``mirrors`` (grid contact, refined windows, planes of symmetry) also take their
+    kernels: a run leaves out those of what it does not use (each costs some 20 ms to
+    load from the cache, a second for all of them: :func:`kernels_of`)."""
     started = time.perf_counter()
     refresh_kernel_caches()
     # 3 x 3 x 3 nodes: what a 27-node shape reaches from the point at (0.5, 0.5, 0.5)
@@ -51,13 +54,13 @@ def warm_up(shape_code=LINEAR, apic=False):
     nodal = np.zeros((N, mpm.NODAL_COMPONENTS))
     gvel, force, gnew = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6))
     affine = np.zeros((1, 9)) if apic else None
-    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine)
+    view = warm_up_contact(pts, geo, block, gvel, gnew, affine)[1] if contact else None
     mpm.particles_to_grid(pts, rigid, geo, nodal, 0)
     if apic:
         mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine)
     mpm.nodal_velocities(nodal, block, 0.0, gvel)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, block, 0.0, gnew)
-    for contact_view in (None, view):
+    for contact_view in (None, view) if contact else (None,):
         mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
                               contact_view, 0, True, True)
         mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0)
@@ -68,11 +71,23 @@ def warm_up(shape_code=LINEAR, apic=False):
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))
-    warm_up_ties(pts, geo, block, nodal)
+    if ties:
+        warm_up_ties(pts, geo, block, nodal)
     boundary.fill_face_codes(shape, lo, strides, n_cells, block.boundary, block.friction,
                              block.faces)
-    warm_up_mirrors(block, nodal)
+    if mirrors:
+        warm_up_mirrors(block, nodal)
     return time.perf_counter() - started
+
+
+def kernels_of(config):
+    """The keyword arguments of :func:`warm_up` for a case (a ``pmpm.case.Config``):
+    grid contact with a contact method and two bodies or more (pmpm.solver.contact.
+    ContactRules.active), ties with refined windows, mirrors with a plane of symmetry."""
+    return {"apic": config.time.transfer == "apic",
+            "contact": config.contact.method > 0 and len(config.bodies) > 1,
+            "ties": bool(config.grid.windows),
+            "mirrors": "symmetry" in config.grid.boundary.values()}
 
 
 def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):

@@ -76,7 +76,8 @@ class ContactRules:
 
     @property
     def active(self):
-        return self.method > 0
+        """Whether grid contact runs: a method and a pair of bodies to apply it to."""
+        return self.method > 0 and self.friction.shape[0] > 1
 
     @property
     def releases(self):

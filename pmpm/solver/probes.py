@@ -5,6 +5,11 @@ eps_p, pressure and von Mises stress (rank 0 writes probe_NAME.csv, pmpm.io.prob
   (``fixed: false``, the default; LS-DYNA's tracer), or samples at every row the body's
   particle nearest the point then (``fixed: true``: a gauge at a place in space, Uintah's
   point extract without interpolation).
+* ``id`` follows the particle (or FE node) of that id.
+* ``region`` tags a group, the body's particles (or FE nodes) inside the box at the start
+  (by their start position, which every particle keeps, split ones included), and
+  samples their mass-weighted means (von Mises: the mean of theirs): LS-DYNA's nodal
+  group or part averages, over material rather than a place.
 * A probe on an FEM body does the same with the body's FE nodes: position and velocity;
   a node carries no stress, so the stress columns read NaN.
 
@@ -15,6 +20,7 @@ followed points, so a restart follows the same ones."""
 import numpy as np
 
 from ..io.derived import stress_invariants
+from .errors import SetupError
 
 #: The columns of a sample, after step and time.
 COLUMNS = ("x", "y", "z", "vx", "vy", "vz", "sxx", "syy", "szz", "sxy", "syz", "szx",
@@ -28,14 +34,55 @@ class Probes:
         self.world, self.elements = world, elements
         self.names = [probe["name"] for probe in probes]
         self.bodies = [body_names.index(p["body"]) for p in probes]
-        self.points = [np.asarray(p["point"], np.float64) for p in probes]
+        self.points = [None if p.get("point") is None else np.asarray(p["point"], np.float64)
+                       for p in probes]
+        self.regions = [region_box(p.get("region")) for p in probes]
         self.fixed = [bool(p.get("fixed", False)) for p in probes]
         self.on_nodes = [elements is not None and b in elements.body_indices
                          for b in self.bodies]
         kept = kept or {}
         self.ids = np.array([kept[p["name"]] if p["name"] in kept else
-                             self.nearest(k, particles) for k, p in enumerate(probes)],
+                             self.first_id(k, p, particles) for k, p in enumerate(probes)],
                             np.int64)
+        self.given = [p.get("id") is not None or p.get("region") is not None
+                      for p in probes]
+        self.body_names = list(body_names)
+        if not kept:
+            self.check_targets(particles)
+
+    def first_id(self, k, probe, particles):
+        """Probe k's point at the start: the given id, the nearest to its point, or -1
+        for a region (collective)."""
+        if probe.get("id") is not None:
+            return int(probe["id"])
+        return -1 if self.regions[k] is not None else self.nearest(k, particles)
+
+    def check_targets(self, particles):
+        """Every probe given an id or a region samples something of its body at the
+        start (collective): an id that is its body's, a region that holds some of it."""
+        found = np.ones(len(self.names))
+        for k in np.flatnonzero(self.given):
+            x, ids, mine = self.points_of(k, particles)
+            if self.regions[k] is not None:
+                found[k] = np.count_nonzero(mine & in_box(x, self.regions[k]))
+            else:
+                found[k] = np.count_nonzero(mine & (ids == self.ids[k]))
+        found = self.world.sum(found)
+        missing = [f"output.probes[{k}].{'region' if self.regions[k] is not None else 'id'}"
+                   f": {'selects no' if self.regions[k] is not None else 'is no id of a'} "
+                   f"{'FE node' if self.on_nodes[k] else 'particle'} of body "
+                   f"'{self.body_names[self.bodies[k]]}'"
+                   for k in np.flatnonzero(found == 0)]
+        if missing:
+            raise SetupError(missing)
+
+    def points_of(self, k, particles):
+        """(start positions, ids, mask of probe k's body) of this rank's particles, or of
+        the FE nodes it counts for a probe on an FEM body."""
+        if self.on_nodes[k]:
+            fem = self.elements
+            return fem.x0, fem.node_id, (fem.node_body == self.bodies[k]) & fem.owned
+        return particles.x0, particles.id, particles.body == self.bodies[k]
 
     def nearest(self, k, particles):
         """The id of probe k's body's particle or FE node nearest its point (collective)."""
@@ -57,10 +104,34 @@ class Probes:
         self.sample_particles(particles, np.where(on_nodes, -2, self.ids), values)
         if on_nodes.any():
             self.sample_nodes(np.where(on_nodes, self.ids, -2), values)
+        grouped = np.array([box is not None for box in self.regions], bool)
+        for k in np.flatnonzero(grouped):
+            self.sum_group(k, particles, values[k])
         values = self.world.sum(values)
+        values[grouped] /= np.where(values[grouped, -1:] > 0, values[grouped, -1:], np.nan)
         values[values[:, -1] == 0, :-1] = np.nan
         values[on_nodes, 6:] = np.nan
         return values[:, :-1]
+
+    def sum_group(self, k, particles, row):
+        """Add this rank's part of region probe k to ``row``: the members' mass-weighted
+        sums of the columns and, last, their mass."""
+        x0, _, mine = self.points_of(k, particles)
+        members = np.flatnonzero(mine & in_box(x0, self.regions[k]))
+        if not len(members):
+            return
+        if self.on_nodes[k]:
+            fem = self.elements
+            m = fem.mass[members]
+            row[:6] += m @ np.hstack([fem.x[members], fem.v[members]])
+        else:
+            m = particles.mass[members]
+            stress = particles.stress[members]
+            pressure, von_mises = stress_invariants(stress)
+            row[:-1] += m @ np.hstack([particles.x[members], particles.v[members], stress,
+                                       particles.eps_p[members][:, None],
+                                       pressure[:, None], von_mises[:, None]])
+        row[-1] += m.sum()
 
     @staticmethod
     def sample_particles(particles, ids, values):
@@ -81,8 +152,22 @@ class Probes:
                 values[k, -1] = 1.0
 
     def state(self):
-        return {name: int(i) for name, i, fixed in zip(self.names, self.ids, self.fixed)
-                if not fixed}
+        return {name: int(i) for name, i, fixed, box in
+                zip(self.names, self.ids, self.fixed, self.regions)
+                if not fixed and box is None}
+
+
+def region_box(region):
+    """(lower, upper) corners of a probe's region, or None."""
+    if region is None:
+        return None
+    return np.asarray(region["min"], np.float64), np.asarray(region["max"], np.float64)
+
+
+def in_box(x, box):
+    """Mask of the rows of ``x`` inside ``box`` (its faces included)."""
+    lo, hi = box
+    return np.all((x >= lo) & (x <= hi), axis=1)
 
 
 def nearest_id(world, x, ids, candidates, point):
