@@ -9,7 +9,8 @@ from ..materials import layout
 from ..materials.state import MaterialState
 from . import boundary, contact, mpm, tied
 from .cache import refresh_kernel_caches
-from .shape import LINEAR, MARKERS
+from .shape import LINEAR, MARKERS, SHAPE_CODES
+from .warmup_fem import warm_up_couplings
 from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, GridGeometry,
                       NodeBlock, PairRules, PointState, TieSet)
 
@@ -21,17 +22,20 @@ def warm_up_defaults():
     functions with the APIC variants: what scripts/setup.sh compiles while h5py builds,
     and the test session before its first test. Returns the seconds spent."""
     from ..case.schema import GRID
-    from .shape import SHAPE_CODES
     return warm_up(LINEAR) + warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True)
 
 
-def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True):
+def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True,
+            **couplings):
     """Return the seconds spent compiling or loading the kernels (for the shape functions
     ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels;
     with ``apic`` also the transfers' affine variants). ``contact``, ``ties`` and
     ``mirrors`` (grid contact, refined windows, planes of symmetry) also take their
     kernels: a run leaves out those of what it does not use (each costs some 20 ms to
-    load from the cache, a second for all of them: :func:`kernels_of`)."""
+    load from the cache, a second for all of them: :func:`kernels_of`). The keywords
+    ``couplings`` (``fem``, ``surface``, ``node_contact``, ``fem_grid``, ``forces``,
+    ``free_rigid``, true or false) take the FEM bodies', their couplings' and the force
+    log's kernels (pmpm.kernels.warmup_fem)."""
     started = time.perf_counter()
     refresh_kernel_caches()
     # 3 x 3 x 3 nodes: what a 27-node shape reaches from the point at (0.5, 0.5, 0.5)
@@ -53,9 +57,13 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     loads = ExternalLoads(np.zeros(3), np.zeros((1, 3)), np.full(1, -1, np.int32), np.zeros(1))
     nodal = np.zeros((N, mpm.NODAL_COMPONENTS))
     gvel, force, gnew = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6))
+    # the particle bodies pass their affine matrices, None without APIC, and the
+    # grid-coupled FE nodes None: an omitted argument would be another signature
     affine = np.zeros((1, 9)) if apic else None
-    view = warm_up_contact(pts, geo, block, gvel, gnew, affine)[1] if contact else None
-    mpm.particles_to_grid(pts, rigid, geo, nodal, 0)
+    pairs = boundary.mirror_pairs(block)
+    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine) if contact else \
+        (None, None)
+    mpm.particles_to_grid(pts, rigid, geo, nodal, 0, None)
     if apic:
         mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine)
     mpm.nodal_velocities(nodal, block, 0.0, gvel)
@@ -63,7 +71,7 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     for contact_view in (None, view) if contact else (None,):
         mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
                               contact_view, 0, True, True)
-        mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0)
+        mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, None)
         if apic:
             mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, affine)
     x, level = pts.x, pts.level
@@ -76,18 +84,50 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     boundary.fill_face_codes(shape, lo, strides, n_cells, block.boundary, block.friction,
                              block.faces)
     if mirrors:
-        warm_up_mirrors(block, nodal)
+        warm_up_mirrors(block, pairs, nodal)
+    warm_up_couplings(pts, geo, block, pairs, mat, bodies, (nodal, force, gvel, gnew),
+                      (slots, view) if contact else None, couplings)
     return time.perf_counter() - started
 
 
 def kernels_of(config):
     """The keyword arguments of :func:`warm_up` for a case (a ``pmpm.case.Config``):
     grid contact with a contact method and two bodies or more (pmpm.solver.contact.
-    ContactRules.active), ties with refined windows, mirrors with a plane of symmetry."""
-    return {"apic": config.time.transfer == "apic",
-            "contact": config.contact.method > 0 and len(config.bodies) > 1,
-            "ties": bool(config.grid.windows),
-            "mirrors": "symmetry" in config.grid.boundary.values()}
+    ContactRules.active), ties with refined windows, mirrors with a face the 27-node
+    shapes reflect across (symmetry, fixed, slip without friction: pmpm.kernels.boundary.
+    mirrors); the FEM bodies' element kernels, particle-to-surface contact where a
+    surface coupling meets particles (or elements convert into them), node-to-surface
+    contact where it meets two FEM bodies, grid coupling where a grid coupling meets
+    particles, and the force log's kernels (``output.forces``), with those of free rigid
+    particle bodies where there are some."""
+    fem = [b.method == "fem" for b in config.bodies]
+    couplings = {config.contact.coupling} | {p.coupling for p in config.contact.pairs}
+    particles = not all(fem)
+    contact = config.contact.method > 0 and len(config.bodies) > 1
+    return {"apic": config.time.transfer == "apic", "contact": contact,
+            "ties": bool(config.grid.windows), "mirrors": _mirrors(config.grid),
+            "fem": any(fem),
+            "surface": any(fem) and ("surface" in couplings and particles
+                                     or _converts(config)),
+            "node_contact": "surface" in couplings and sum(fem) > 1,
+            "fem_grid": any(fem) and particles and contact and "grid" in couplings,
+            "forces": config.output.forces,
+            "free_rigid": contact and any(not f and (b.rigid or {}).get("free")
+                                          for f, b in zip(fem, config.bodies))}
+
+
+def _mirrors(grid):
+    """Whether a 27-node shape's nodes beyond a box face have images (kernel mirrors)."""
+    if grid.shape_functions == "linear":
+        return False
+    return any(kind in ("symmetry", "fixed") or
+               (kind == "slip" and not (grid.friction or {}).get(face, 0.0))
+               for face, kind in grid.boundary.items())
+
+
+def _converts(config):
+    """Whether an FEM body converts failing elements into particles."""
+    return any(b.method == "fem" and (b.fem or {}).get("convert") for b in config.bodies)
 
 
 def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):
@@ -97,7 +137,8 @@ def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):
     slot_nodes = contact.number_contact_nodes(mask, slot_of)
     cnodal = np.zeros((0, 1, contact.CNODAL))
     cvel, cforce, cnew = np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1, 6))
-    contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0)
+    contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, None)
+    boundary.mirror_masks(mask, boundary.mirror_pairs(block))
     if affine is not None:
         contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, affine)
     slots = ContactSlots(cnodal, slot_nodes, cvel, cvel.copy(), cforce, cnew)
@@ -132,10 +173,9 @@ def warm_up_ties(pts, geo, block, nodal):
     tied.clear_slave_slots(ties, mask)
 
 
-def warm_up_mirrors(block, nodal):
+def warm_up_mirrors(block, pairs, nodal):
     """The planes of symmetry's kernels (pmpm.kernels.boundary), on node rows and on
-    contact slots."""
-    pairs = boundary.mirror_pairs(block)
+    contact slots (``pairs``: the block's mirror pairs)."""
     kinds = boundary.column_kinds(nodal.shape[1], velocity=(1,))
     boundary.mirror_rows(nodal[:, None, :], kinds, pairs, block.boundary, None, None)
     boundary.mirror_rows(nodal[:, None, :], kinds, pairs, block.boundary, None,
@@ -147,5 +187,4 @@ def warm_up_mirrors(block, nodal):
                              slot_of, tied)
         boundary.mirror_rows(np.zeros((0, 1, 3))[:, :, 0][:, :, None], kinds[:1], pairs,
                              block.boundary, slot_of, tied)
-    boundary.mirror_masks(np.zeros(N, np.int64), pairs)
     boundary.mirror_extents(np.zeros((0, 1, contact.CEXT)), pairs, slot_of)

@@ -162,7 +162,8 @@ class FemGridNodes:
     def scatter_mass_momentum(self, state):
         if state.index == 0:
             self.gather()
-        mpm.particles_to_grid(self.pts, self.rigid, state.geometry, state.nodal, state.index)
+        mpm.particles_to_grid(self.pts, self.rigid, state.geometry, state.nodal, state.index,
+                              None)       # no affine matrices: the warm-up's signature
 
     def mark_occupied(self, coarse, occupied):
         g = coarse.geometry
@@ -173,7 +174,8 @@ class FemGridNodes:
         kc.body_masks(self.pts, state.geometry, mask, state.index)
 
     def scatter_contact(self, state, slot_of, cnodal):
-        kc.contact_particles_to_grid(self.pts, state.geometry, slot_of, cnodal, state.index)
+        kc.contact_particles_to_grid(self.pts, state.geometry, slot_of, cnodal, state.index,
+                                     None)
 
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.pts, state.geometry, slot_of, cext, state.index)

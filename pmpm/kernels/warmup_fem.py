@@ -1,0 +1,142 @@
+"""Compile (or load from Numba's cache) the kernels of the FEM bodies, of their couplings
+(particle-to-surface ICFEMP, node-to-surface, grid CFEMP) and of the force log before the
+step loop, as :mod:`pmpm.kernels.warmup` does for the MPM step: otherwise they compile
+inside the first step, which then takes seconds (cold) or a fifth of a second (cached)
+more than the others.
+
+Numba compiles one specialisation per argument-type signature, so each kernel is called
+here with exactly the types the solver passes it (int64 where the solver converts,
+int32 where it keeps the mesh's int32 body columns, contiguous arrays, the same
+namedtuple records); a call with another dtype or layout would compile a second variant
+and leave the first step compiling still (tests/test_warmup.py counts the signatures).
+The problems are empty or one element: the calls only need valid types."""
+import numpy as np
+
+from ..fem import elements as fe
+from ..fem.hexahedron import element_volumes
+from ..fem.stability import mesh_rate
+from ..materials import layout
+from . import fem_grid, forces, node_contact, surface_contact
+
+#: the unit cube as one hexahedron (VTK order)
+CUBE = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                 [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], np.float64)
+
+
+def warm_up_elements(mat, bodies):
+    """The element kernels (pmpm.fem: set-up volumes, masses and stable rate, the step's
+    element forces, loads and central-difference update) on one unit-cube element with
+    the material state ``mat`` and table ``bodies`` of the MPM warm-up. One kernel serves
+    every element formulation and hourglass form: those are data (``Hourglass.kind``)."""
+    x, v = CUBE.copy(), np.zeros((8, 3))
+    hexes, body = np.arange(8, dtype=np.int64)[None, :], np.zeros(1, np.int32)
+    vol, mass = np.empty(1), np.empty(8)
+    element_volumes(x, hexes, vol)
+    rho0 = np.ascontiguousarray(bodies.params[:, layout.RHO0])
+    fe.lumped_masses(hexes, vol, bodies.params[body, layout.RHO0], mass)
+    kind, coefficient = np.zeros(1, np.int64), np.full(1, 0.1)
+    mesh_rate(x, hexes, body, rho0, np.ones(1), bodies.params, kind, coefficient)
+    hourglass = fe.Hourglass(kind, coefficient, np.zeros((1, 12)), np.zeros(1))
+    force = np.zeros((8, 3))
+    fe.element_forces(fe.ElementMesh(x, v, hexes, body), mat, bodies, hourglass, 1e-3,
+                      force)
+    fe.external_forces(mass, np.zeros(3), np.full(8, -1, np.int32), np.zeros(1),
+                       np.zeros((1, 3)), force)
+    fe.advance_velocities(v, force, mass, np.zeros((8, 3), np.bool_), 1e-3)
+    fe.advance_positions(x, v, 1e-3)
+
+
+def _segments():
+    """Empty segment arrays and a one-bucket grid of them (kernel bucket_segments)."""
+    seg_x, seg_lo = np.zeros((0, 4, 3)), np.zeros((0, 3))
+    seg_move = np.empty(0)
+    surface_contact.segment_moves(seg_x, seg_x.copy(), seg_move)
+    lo, dims = np.zeros(3), np.ones(3, np.int64)
+    start, items = surface_contact.bucket_segments(seg_lo, seg_lo.copy(), lo, 1.0, dims)
+    return seg_x, seg_move, lo, dims, start, items
+
+
+def warm_up_surface():
+    """The particle-to-surface contact kernels (ICFEMP, pmpm.solver.surface_contact)."""
+    seg_x, seg_move, lo, dims, start, items = _segments()
+    i0, f1, f2 = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3))
+    touches, friction = np.zeros((1, 1), np.bool_), np.zeros((1, 1))
+    surface_contact.find_pairs(f2, f2.copy(), i0, f1, f1.copy(), seg_x, seg_x.copy(),
+                               seg_move, i0.copy(), i0.copy(), touches, lo, 1.0, dims,
+                               start, items, i0.copy(), np.zeros((0, 6)))
+    surface_contact.pair_impulses(i0, i0.copy(), np.zeros((0, 6)), f1, f2, i0.copy(),
+                                  seg_x, np.zeros((0, 4)), i0.copy(), friction, f2.copy())
+
+
+def warm_up_node_contact():
+    """The FEM node-to-surface contact kernels (pmpm.solver.node_contact)."""
+    seg_x, seg_move, lo, dims, start, items = _segments()
+    i0, f1, f2 = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3))
+    node_contact.segment_boxes(seg_x, f1, f2, f2.copy())
+    touches, friction = np.zeros((1, 1), np.bool_), np.zeros((1, 1))
+    node_contact.find_node_pairs(f2, f2.copy(), f1, i0, seg_x, seg_x.copy(), seg_move,
+                                 i0.copy(), i0.copy(), f1.copy(), touches, 0.0, lo, 1.0,
+                                 dims, start, items, i0.copy(), np.zeros((0, 6)))
+    node_contact.node_pair_impulses(i0, i0.copy(), np.zeros((0, 6)), f1, f2, i0.copy(),
+                                    seg_x, np.zeros((0, 4)), i0.copy(), friction, 1e-3,
+                                    f2.copy(), f1.copy())
+
+
+def warm_up_fem_grid(pts, geo, block, force, slots, view):
+    """The grid coupling's kernels (CFEMP, pmpm.solver.fem_grid) on the warm-up's point,
+    grid and (empty) contact slots and view."""
+    fem_grid.node_forces_to_grid(pts, geo, force, np.zeros((1, 3)), view.slot_of,
+                                 view.cforce, 0)
+    n_slots, nb = slots.cnodal.shape[:2]
+    dacc = np.zeros((n_slots, nb, 3))
+    rigid = np.zeros(nb, np.bool_)
+    fem_grid.contact_accelerations(slots, rigid, 1e-12, block, dacc)
+    fem_grid.contact_velocity_changes(pts, geo, view.slot_of, dacc, 1e-3, rigid,
+                                      np.zeros((1, 3)), 0)
+
+
+def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False):
+    """The force log's kernels (pmpm.solver.forces): the grid faces' impulses, the
+    surface pairs', and with grid contact's ``slots`` its pairs' (``free_rigid``: also
+    the free rigid particle bodies' partners, pmpm.solver.rigid_particles)."""
+    n = len(block.faces)
+    nodes, face_of = np.empty(n, np.int64), np.empty(n, np.int64)
+    counted = np.ones(1, np.bool_)
+    count = forces.face_zone(block.faces, pairs, counted, n, nodes, face_of)
+    raw = np.empty((count, forces.RAW_WIDTH))
+    forces.keep_rows(nodes, count, gnew, 0, raw)
+    face = np.zeros((6, forces.FACE_WIDTH))
+    forces.face_impulses(nodes, face_of, count, raw, gvel, gnew, block, 0.0, 1e-3, 1e-12,
+                         face)
+    pair = np.zeros((1, 1, forces.PAIR_WIDTH))
+    i0, f2 = np.zeros(0, np.int64), np.zeros((0, 3))
+    forces.pair_impulses(i0, i0.copy(), f2, f2.copy(), np.zeros(0), pair)
+    if slots is None:
+        return
+    nb = slots.cnodal.shape[1]
+    real_mass, share, rigid = np.zeros((0, nb)), np.ones(nb), np.zeros(nb, np.bool_)
+    forces.contact_impulses(slots, real_mass, share, rigid, block.faces, counted, n,
+                            1e-3, 1e-12, np.zeros((nb, nb, forces.PAIR_WIDTH)))
+    if free_rigid:
+        forces.rigid_partner_impulses(slots, real_mass, share, rigid, rigid.copy(),
+                                      block.faces, counted, n, 1e-3, np.zeros((nb, 3)))
+
+
+def warm_up_couplings(pts, geo, block, pairs, mat, bodies, grids, contact_state, kinds):
+    """The kernels of what ``kinds`` names (the keys of :func:`pmpm.kernels.warmup.
+    kernels_of` that are true: ``fem``, ``surface``, ``node_contact``, ``fem_grid``,
+    ``forces``, ``free_rigid``); ``grids`` = (nodal, force, gvel, gnew) and
+    ``contact_state`` = (slots, view) of grid contact, or None without it."""
+    nodal, force, gvel, gnew = grids
+    slots, view = contact_state or (None, None)
+    if kinds.get("fem"):
+        warm_up_elements(mat, bodies)
+    if kinds.get("surface"):
+        warm_up_surface()
+    if kinds.get("node_contact"):
+        warm_up_node_contact()
+    if kinds.get("fem_grid") and slots is not None:
+        warm_up_fem_grid(pts, geo, block, force, slots, view)
+    if kinds.get("forces"):
+        warm_up_forces(block, pairs, gvel, gnew, slots, kinds.get("free_rigid", False))
+
