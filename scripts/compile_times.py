@@ -9,9 +9,11 @@ empty cache: run it as
 
     NUMBA_CACHE_DIR=$(mktemp -d) NUMBA_NUM_THREADS=1 .venv/bin/python scripts/compile_times.py linear
     NUMBA_CACHE_DIR=$(mktemp -d) NUMBA_NUM_THREADS=1 .venv/bin/python scripts/compile_times.py gimp --apic
+    NUMBA_CACHE_DIR=$(mktemp -d) NUMBA_NUM_THREADS=1 .venv/bin/python scripts/compile_times.py linear --fem
     NUMBA_CACHE_DIR=$(mktemp -d) NUMBA_NUM_THREADS=1 .venv/bin/python scripts/compile_times.py defaults
 
-(``defaults``: ``warm_up_defaults``, what scripts/setup.sh and the test session compile)
+(``--fem``: also the FEM bodies', their couplings' and the force log's kernels;
+``defaults``: ``warm_up_defaults``, what scripts/setup.sh and the test session compile)
 
 (with a warm cache it times the loads). CPU seconds are the figure to compare on a shared
 machine: wall time under load counts other people's work.
@@ -53,19 +55,23 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("shape", nargs="?", default="linear", choices=["linear", "gimp", "bspline", "defaults"])
     parser.add_argument("--apic", action="store_true", help="also the APIC transfer variants")
+    parser.add_argument("--fem", action="store_true",
+                        help="also the FEM bodies', their couplings' and the force log's")
     parser.add_argument("--top", type=int, default=25, help="kernels to list")
     args = parser.parse_args()
     timer = CompileTimer()
     event.register("numba:compile", timer)
     from pmpm.kernels.shape import SHAPE_CODES
-    from pmpm.kernels.warmup import warm_up, warm_up_defaults
+    from pmpm.kernels.warmup import ALL_COUPLINGS, warm_up, warm_up_defaults
     cpu0 = time.process_time()
     if args.shape == "defaults":
         wall = warm_up_defaults()
     else:
-        wall = warm_up(SHAPE_CODES[args.shape], apic=args.apic)
+        wall = warm_up(SHAPE_CODES[args.shape], apic=args.apic,
+                       **(ALL_COUPLINGS if args.fem else {}))
     cpu = time.process_time() - cpu0
-    print(f"warm_up({args.shape}{', apic' if args.apic else ''}): {wall:.1f} s wall, "
+    print(f"warm_up({args.shape}{', apic' if args.apic else ''}{', fem' if args.fem else ''}): "
+          f"{wall:.1f} s wall, "
           f"{cpu:.1f} s CPU, load average {os.getloadavg()[0]:.1f}")
     print(f"specialisations in the cache: {cached_specialisations(os.environ.get('NUMBA_CACHE_DIR'))}")
     print("   wall     CPU  kernel")

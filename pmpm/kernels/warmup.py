@@ -17,12 +17,20 @@ from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, G
 N = 27   # nodes of the warm-up block
 
 
+#: every kind of :func:`kernels_of` beyond the MPM step's: the FEM bodies, their
+#: couplings, the force log (pmpm.kernels.warmup_fem)
+ALL_COUPLINGS = {"fem": True, "surface": True, "node_contact": True, "fem_grid": True,
+                 "forces": True, "free_rigid": True}
+
+
 def warm_up_defaults():
     """Compile (or load) the step's kernels for the hats and for the default shape
-    functions with the APIC variants: what scripts/setup.sh compiles while h5py builds,
-    and the test session before its first test. Returns the seconds spent."""
+    functions with the APIC variants, the FEM bodies' and couplings' with them: what
+    scripts/setup.sh compiles while h5py builds, and the test session before its first
+    test. Returns the seconds spent."""
     from ..case.schema import GRID
-    return warm_up(LINEAR) + warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True)
+    return warm_up(LINEAR, **ALL_COUPLINGS) + \
+        warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True, **ALL_COUPLINGS)
 
 
 def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True,
