@@ -70,8 +70,8 @@ def main():
         wall = warm_up(SHAPE_CODES[args.shape], apic=args.apic,
                        **(ALL_COUPLINGS if args.fem else {}))
     cpu = time.process_time() - cpu0
-    print(f"warm_up({args.shape}{', apic' if args.apic else ''}{', fem' if args.fem else ''}): "
-          f"{wall:.1f} s wall, "
+    kinds = (", apic" if args.apic else "") + (", fem" if args.fem else "")
+    print(f"warm_up({args.shape}{kinds}): {wall:.1f} s wall, "
           f"{cpu:.1f} s CPU, load average {os.getloadavg()[0]:.1f}")
     print(f"specialisations in the cache: {cached_specialisations(os.environ.get('NUMBA_CACHE_DIR'))}")
     print("   wall     CPU  kernel")
