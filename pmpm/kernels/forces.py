@@ -92,19 +92,21 @@ def _face_of_component(code, g, block, d, mirror_face):
 
 
 @njit(cache=True)
-def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_tiny, out):
+def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_tiny, slave,
+                  out):
     """Add each kept node's impulse from the faces (module docstring) to ``out[:, :3]``
     (6, :data:`FACE_WIDTH`), component by component to the face that takes it
     (:func:`_face_of_component`), and the work it dissipated (``-impulse . v`` with the
     node's end velocity ``v``) to ``out[:, 3]``.
     Nodes of rigid bodies (rigid mass > 0) and nodes without mass are left out: a rigid
-    body's push is not a face's. ``block``: the level's NodeBlock."""
+    body's push is not a face's, and so are tied slaves (``slave[n]``: their motion is
+    their masters', pmpm.kernels.tied). ``block``: the level's NodeBlock."""
     g = np.empty(3, np.int64)
     for k in range(count):
         m = raw[k, 0]
-        if raw[k, 4] > 0.0 or m <= m_tiny:
-            continue
         n = nodes[k]
+        if raw[k, 4] > 0.0 or m <= m_tiny or slave[n]:
+            continue
         for d in range(3):
             g[d] = block.lo[d] + (n // block.strides[d]) % block.shape[d]
         for d in range(3):
@@ -118,7 +120,7 @@ def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_ti
 
 @njit(cache=True)
 def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_plane, dt,
-                     m_tiny, out):
+                     m_tiny, slave, out):
     """Add to ``out[b, other]`` (n_bodies, n_bodies, :data:`PAIR_WIDTH`) the impulse grid
     contact gave each deformable body b at the contact nodes this rank counts, against
     the heaviest other body there (the one its correction was made against): the end
@@ -126,7 +128,8 @@ def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_pl
     within the node's faces) and ``share[b]`` times method 2's start correction ``m (v0
     - v_alone)``, with ``m`` the mass its particles put on the node (``real_mass``,
     before any reflection). The normal part is taken along b's outward normal, counted
-    positive when it pushes b inward. The work dissipated, ``-imp . (v_b - v_ref)`` with
+    positive when it pushes b inward. Tied slaves (``slave[n]``) are left out: their
+    motion is their masters'. The work dissipated, ``-imp . (v_b - v_ref)`` with
     the end velocities (:func:`_reference_velocity`), goes to the same pair: against a
     rigid body it is the pair's; between two deformable bodies, whose impulses are
     opposite, the two terms add up to the pair's ``-imp . (v_b - v_other)``."""
@@ -134,7 +137,7 @@ def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_pl
     imp, own, ref = np.empty(3), np.empty(3), np.empty(3)
     for s in range(slot_nodes.shape[0]):
         n = slot_nodes[s]
-        if not counted[n // per_plane]:
+        if not counted[n // per_plane] or slave[n]:
             continue
         _reference_velocity(cnodal, cnew, body_rigid, s, ref)
         for b in range(cnodal.shape[1]):

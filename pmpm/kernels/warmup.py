@@ -179,6 +179,7 @@ def warm_up_ties(pts, geo, block, nodal):
     tied.slaves_to_masters(ties, nodal, nodal)
     tied.masters_to_slaves(ties, nodal, nodal)
     tied.clear_slave_slots(ties, mask)
+    tied.mark_slaves(ties, np.zeros(N, np.int8))
 
 
 def warm_up_mirrors(block, pairs, nodal):

@@ -106,8 +106,9 @@ def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False):
     raw = np.empty((count, forces.RAW_WIDTH))
     forces.keep_rows(nodes, count, gnew, 0, raw)
     face = np.zeros((6, forces.FACE_WIDTH))
+    slave = np.zeros(n, np.int8)
     forces.face_impulses(nodes, face_of, count, raw, gvel, gnew, block, 0.0, 1e-3, 1e-12,
-                         face)
+                         slave, face)
     pair = np.zeros((1, 1, forces.PAIR_WIDTH))
     i0, f2 = np.zeros(0, np.int64), np.zeros((0, 3))
     forces.pair_impulses(i0, i0.copy(), f2, f2.copy(), np.zeros(0), pair)
@@ -116,7 +117,7 @@ def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False):
     nb = slots.cnodal.shape[1]
     real_mass, share, rigid = np.zeros((0, nb)), np.ones(nb), np.zeros(nb, np.bool_)
     forces.contact_impulses(slots, real_mass, share, rigid, block.faces, counted, n,
-                            1e-3, 1e-12, np.zeros((nb, nb, forces.PAIR_WIDTH)))
+                            1e-3, 1e-12, slave, np.zeros((nb, nb, forces.PAIR_WIDTH)))
     if free_rigid:
         forces.rigid_partner_impulses(slots, real_mass, share, rigid, rigid.copy(),
                                       block.faces, counted, n, 1e-3, np.zeros((nb, 3)))

@@ -24,13 +24,14 @@ Attribution rules worth knowing:
   (:mod:`pmpm.kernels.forces`), which only friction makes nonzero; their sum is
   history.csv's ``dissipated``;
 * a face node that is also a contact node is counted with the shared field's motion, and
-  with refined windows the tied nodes that lie on a face are not counted: both are
-  approximations near such nodes only.
+  with refined windows the tied slave nodes (whose motion is their masters') are not
+  counted: both are approximations near such nodes only.
 """
 import numpy as np
 
 from ..kernels import forces as kf
 from ..kernels.mpm import NODAL_COMPONENTS
+from ..kernels.tied import mark_slaves
 from .contact import start_shares
 from .couplings import Coupling
 
@@ -67,6 +68,7 @@ class ForceLog(Coupling):
         self.since = 0.0                    # the time of the previous history row
         self.zones = {}
         self.zone_keys = {}
+        self.no_slaves = np.zeros(0, np.int8)
 
     # -- the step's hooks ------------------------------------------------------------
     def before_reflect(self, grids, what):
@@ -107,16 +109,32 @@ class ForceLog(Coupling):
     def after_integrate(self, grids, dt):
         for s in grids:
             nodes, face_of, count, raw = self.zones[s.index]
+            slave = self.tied_slaves(s)
             if count:
                 kf.face_impulses(nodes, face_of, count, raw, s.gvel, s.gnew, s.nodes,
-                                 self.share, dt, self.m_tiny, self.face)
+                                 self.share, dt, self.m_tiny, slave, self.face)
             if self.grid_contact is not None:
                 f = self.grid_contact.fields[s.index]
                 if f.n_slots:
                     per_plane, counted = counted_planes(s.block, self.world.rank)
                     kf.contact_impulses(f.slots(), f.real_mass, self.body_share, self.rigid,
                                         s.nodes.faces, counted, per_plane, dt, self.m_tiny,
-                                        self.pair)
+                                        slave, self.pair)
+
+    def tied_slaves(self, s):
+        """Per node of level ``s``, 1 at this step's tied slaves (a window's interface
+        nodes, the coarse nodes just inside it): their motion is interpolated from their
+        masters, so what they seem to be given is the tie's, not a face's or contact's."""
+        n_nodes = s.block.n_nodes
+        if len(self.no_slaves) < n_nodes:
+            self.no_slaves = np.zeros(n_nodes, np.int8)
+        ties = getattr(s, "slave_ties", None)
+        if not ties:
+            return self.no_slaves[:n_nodes]
+        slave = np.zeros(n_nodes, np.int8)
+        for t in ties:
+            mark_slaves(t, slave)
+        return slave
 
     # -- from the other couplings and the FEM bodies ---------------------------------
     def surface_pairs(self, first, second, impulses, normals, relative, inverse_mass):
