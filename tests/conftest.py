@@ -26,7 +26,8 @@ FILE_SECONDS = {
     "test_wall_friction.py": 12, "test_fem_bending.py": 70,
     "test_surface_contact_search.py": 10, "test_damage.py": 20, "test_forces.py": 30,
     "test_geometry_input.py": 15, "test_frame_precision.py": 15, "test_displacement.py": 20,
-    "test_rigid_free_particles.py": 40, "test_probes.py": 25, "test_post_plots.py": 15,
+    "test_rigid_free_particles.py": 40, "test_probes.py": 30, "test_post_plots.py": 15,
+    "test_frame_blocks.py": 20, "test_warmup.py": 25,
 }
 OTHER_FILE_SECONDS = 5
 
