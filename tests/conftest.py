@@ -11,23 +11,29 @@ import pytest
 
 from pmpm.kernels.warmup import warm_up_defaults
 
-#: seconds per test file, serial tests in one process on a loaded 2-core machine (refresh
-#: with ``pytest --durations=0``): only the shares' balance depends on them (two shares
-#: on an idle machine: 1068 and 913 s)
+#: seconds per test file with both shares running side by side on the 2-core machine
+#: (from ``pytest --durations=100`` of each share, 2026-12-03; refresh when files are
+#: added): only the shares' balance depends on them
 FILE_SECONDS = {
-    "test_contact_cases.py": 180, "test_taylor_bar.py": 175, "test_shape_functions.py": 140,
-    "test_unchanged_answers.py": 125, "test_matrix.py": 115, "test_hertz.py": 95,
-    "test_tied.py": 90, "test_apic.py": 60, "test_parallel.py": 50, "test_restart.py": 45,
-    "test_fem_bodies.py": 40, "test_materials.py": 36, "test_fuzz.py": 35,
-    "test_contact_release.py": 30, "test_surface_contact.py": 28, "test_case.py": 25,
-    "test_fem_grid_coupling.py": 25, "test_water_column.py": 23, "test_conversion.py": 23,
-    "test_contact.py": 22, "test_wave_bar.py": 16, "test_lost_particles.py": 16,
-    "test_sphere_rolling_fem.py": 14, "test_ogive_plate_fem.py": 14,
-    "test_wall_friction.py": 12, "test_fem_bending.py": 70,
-    "test_surface_contact_search.py": 10, "test_damage.py": 20, "test_forces.py": 30,
-    "test_geometry_input.py": 15, "test_frame_precision.py": 15, "test_displacement.py": 20,
-    "test_rigid_free_particles.py": 40, "test_probes.py": 30, "test_post_plots.py": 15,
-    "test_frame_blocks.py": 20, "test_warmup.py": 25,
+    "test_contact_cases.py": 369, "test_shape_functions.py": 168, "test_taylor_bar.py": 148,
+    "test_apic.py": 113, "test_fem_bodies.py": 89, "test_tied.py": 84,
+    "test_contact.py": 80, "test_hertz.py": 76, "test_matrix.py": 69,
+    "test_fem_bending.py": 64, "test_parallel.py": 62, "test_contact_release.py": 57,
+    "test_output_lock.py": 53, "test_ogive_plate_fem.py": 52, "test_unchanged_answers.py": 52,
+    "test_water_column.py": 42, "test_conversion.py": 41, "test_wall_friction.py": 39,
+    "test_energy_watch.py": 38, "test_materials.py": 36.0, "test_restart.py": 36,
+    "test_forces.py": 35, "test_probes.py": 35, "test_fem_grid_coupling.py": 34,
+    "test_fuzz.py": 33, "test_surface_contact.py": 31, "test_lost_particles.py": 26,
+    "test_case.py": 25.0, "test_cli.py": 22, "test_frame_precision.py": 20,
+    "test_post_plots.py": 20, "test_wave_bar.py": 18, "test_damage.py": 17,
+    "test_memory_estimate.py": 16, "test_sphere_rolling_fem.py": 16, "test_hostile_input.py": 15,
+    "test_geometry_input.py": 15.0, "test_fem_mesh_input.py": 14, "test_hexmesh.py": 12,
+    "test_faults.py": 12, "test_surface_contact_search.py": 12, "test_pic.py": 12,
+    "test_frame_blocks.py": 12, "test_force.py": 11, "test_fem_contact.py": 10,
+    "test_displacement.py": 10, "test_fem_wave_bar.py": 9, "test_communication.py": 8,
+    "test_run_size.py": 8, "test_output_fields.py": 6, "test_warmup.py": 6,
+    "test_loads.py": 5, "test_rigid_free_particles.py": 5, "test_surface_contact_impact.py": 5,
+    "test_fixed_step.py": 5,
 }
 OTHER_FILE_SECONDS = 5
 
