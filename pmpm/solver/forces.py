@@ -68,7 +68,7 @@ class ForceLog(Coupling):
         self.since = 0.0                    # the time of the previous history row
         self.zones = {}
         self.zone_keys = {}
-        self.no_slaves = np.zeros(0, np.int8)
+        self.slave_masks = {}               # level index (None: no ties) -> int8 mask
 
     # -- the step's hooks ------------------------------------------------------------
     def before_reflect(self, grids, what):
@@ -126,14 +126,16 @@ class ForceLog(Coupling):
         nodes, the coarse nodes just inside it): their motion is interpolated from their
         masters, so what they seem to be given is the tie's, not a face's or contact's."""
         n_nodes = s.block.n_nodes
-        if len(self.no_slaves) < n_nodes:
-            self.no_slaves = np.zeros(n_nodes, np.int8)
         ties = getattr(s, "slave_ties", None)
-        if not ties:
-            return self.no_slaves[:n_nodes]
-        slave = np.zeros(n_nodes, np.int8)
-        for t in ties:
-            mark_slaves(t, slave)
+        kept = self.slave_masks.get(s.index if ties else None)
+        if kept is None or len(kept) < n_nodes:        # kept between steps: no allocation
+            kept = np.zeros(max(n_nodes, 1024) * 5 // 4, np.int8)
+            self.slave_masks[s.index if ties else None] = kept
+        slave = kept[:n_nodes]
+        if ties:
+            slave.fill(0)
+            for t in ties:
+                mark_slaves(t, slave)
         return slave
 
     # -- from the other couplings and the FEM bodies ---------------------------------
