@@ -48,11 +48,3 @@ def swap_with(world, ranks, payload, tag=80):
         request.wait()
     return received
 
-
-def exchange_objects(world, packages):
-    """Send ``packages[r]`` to rank r (any picklable object, to self too) and return what
-    every rank sent here, by rank: the elements that change rank, with their nodes, at
-    a balance check (rare, so pickled)."""
-    sizes = [payload_bytes(p) for r, p in enumerate(packages) if r != world.rank]
-    world.traffic.note("alltoall", sum(sizes), sum(1 for size in sizes if size))
-    return world.raw.alltoall(packages)

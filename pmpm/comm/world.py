@@ -9,7 +9,8 @@ import numpy as np
 
 class Traffic:
     """What this rank has sent since :meth:`reset`: point-to-point messages to
-    neighbours (shared slab planes, shared FE nodes) and their bytes, collectives
+    neighbours (shared slab planes, shared FE nodes, the sparse exchanges of
+    pmpm.comm.sparse) and their bytes, collectives
     (reductions, gathers, broadcasts) and their bytes, and all-to-all exchanges
     (particle migration) with the messages and bytes that went to other ranks."""
 
@@ -64,6 +65,7 @@ class World:
         self.rank = raw.Get_rank()
         self.size = raw.Get_size()
         self.traffic = Traffic()
+        self.exchanges = 0      # sparse exchanges so far: their tags (pmpm.comm.sparse)
 
     @property
     def is_root(self):

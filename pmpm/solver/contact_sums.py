@@ -7,12 +7,12 @@ keyed by (node id, pair key), the pair key being the particle id or the slave no
 Every sum over such rows is taken in (node id, pair key) order, so the same rows give
 the same sums bit for bit however they were spread over ranks and however they arrive:
 1 rank agrees with N to round-off, and every copy of a shared node takes the same total.
-The messages are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.exchange_objects),
-simple rather than fast.
+The messages are packed sparse exchanges (pmpm.comm.sparse.exchange_arrays): one
+message to each rank that gets rows, none to the others.
 """
 import numpy as np
 
-from ..comm.shared_nodes import exchange_objects
+from ..comm.sparse import exchange_arrays
 
 
 def sums_in_order(gid, pid, rows):
@@ -29,8 +29,8 @@ def sums_at_home(world, gid, pid, rows, home):
     """(node ids, sums of ``rows``) of the nodes in ``gid``, over all ranks (collective):
     each rank sends its rows to the node's ``home`` rank (its lowest holder), which sums
     them in (node id, pair key ``pid``) order and answers with the totals."""
-    asks = exchange_objects(world, [(gid[home == r], pid[home == r], rows[home == r])
-                                    for r in range(world.size)])
+    asks = exchange_arrays(world, [(gid[home == r], pid[home == r], rows[home == r])
+                                   for r in range(world.size)])
     ids, total = sums_in_order(np.concatenate([a[0] for a in asks]),
                                np.concatenate([a[1] for a in asks]),
                                np.concatenate([a[2] for a in asks]))
@@ -38,7 +38,7 @@ def sums_at_home(world, gid, pid, rows, home):
     for ask in asks:
         mine = np.unique(ask[0])
         answers.append((mine, total[np.searchsorted(ids, mine)]))
-    back = exchange_objects(world, answers)
+    back = exchange_arrays(world, answers)
     ids = np.concatenate([a for a, _ in back])
     total = np.concatenate([b for _, b in back])
     order = np.argsort(ids)
@@ -50,7 +50,7 @@ def totals_at_holders(world, gid, pid, rows, holders, node_id):
     ids, ascending) the sum of the rows of every rank addressed to it. Each row goes to
     every rank of its node's ``holders`` (ranks, padded with -1) and is summed there in
     (node id, pair key ``pid``) order (collective)."""
-    parts = [(gid, pid, rows)] if world.size == 1 else exchange_objects(
+    parts = [(gid, pid, rows)] if world.size == 1 else exchange_arrays(
         world, [(gid[w], pid[w], rows[w]) for w in
                 ((holders == r).any(axis=1) for r in range(world.size))])
     gid = np.concatenate([part[0] for part in parts])

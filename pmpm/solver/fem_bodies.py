@@ -31,7 +31,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..comm.shared_nodes import exchange_objects, sum_shared_rows
+from ..comm.shared_nodes import sum_shared_rows
+from ..comm.sparse import exchange_arrays
 from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
                             NON_POSITIVE_VOLUME, ElementMesh, Hourglass, advance_positions,
                             advance_velocities, element_forces, external_forces,
@@ -217,8 +218,9 @@ class FemBodies:
 
     def migrate(self, grid, slabs):
         """Send every element whose centroid has left this rank's slab to its new owner,
-        with its state and its nodes' (collective; one all-to-all, only when some
-        element moves). Returns whether any moved."""
+        with its state and its nodes' (collective; one packed sparse exchange of the
+        columns, pmpm.comm.sparse, only when some element moves: a message to each rank
+        that gets elements). Returns whether any moved."""
         owner = element_owners(self.centroids(), grid, slabs)
         if not self.world.any(np.any(owner != self.world.rank)):
             return False
@@ -227,11 +229,12 @@ class FemBodies:
         for rank in range(self.world.size):
             going = owner == rank
             used = np.unique(self.hexes[going])
-            packages.append(({k: col[going] for k, col in elements.items()},
-                             {k: col[used] for k, col in nodes.items()}))
-        received = exchange_objects(self.world, packages)
-        elements = {k: np.concatenate([e[k] for e, _ in received]) for k in elements}
-        nodes = {k: np.concatenate([n[k] for _, n in received]) for k in nodes}
+            package = {("element", k): col[going] for k, col in elements.items()}
+            package.update({("node", k): col[used] for k, col in nodes.items()})
+            packages.append(package)
+        received = exchange_arrays(self.world, packages)
+        elements = {k: np.concatenate([p["element", k] for p in received]) for k in elements}
+        nodes = {k: np.concatenate([p["node", k] for p in received]) for k in nodes}
         _, first = np.unique(nodes["node_id"], return_index=True)  # copies are equal
         self.set_columns(elements, {k: col[first] for k, col in nodes.items()})
         return True

@@ -30,8 +30,9 @@ Over MPI the nodes are copies on every rank holding one of their elements. Each 
 mapped once, by the rank whose slab holds it (the rule of particles, so that rank's
 block covers its shape functions: the blocks' cell ranges include the nodes, see
 :meth:`FemGridNodes.spans`); when no rank holding the node owns that slab, the node's
-lowest holder lends it to that rank for the step (one all-to-all at the map, one for the
-forces, one back with the velocity change, only in steps where some rank lends). The
+lowest holder lends it to that rank for the step (one packed sparse exchange,
+pmpm.comm.sparse, at the map, one for the forces, one back with the velocity change, only
+in steps where some rank lends). The
 velocity change is then summed over the holders (one rank's is non-zero), so every copy
 takes the same.
 
@@ -52,7 +53,8 @@ contact.
 """
 import numpy as np
 
-from ..comm.shared_nodes import exchange_objects, sum_shared_rows
+from ..comm.shared_nodes import sum_shared_rows
+from ..comm.sparse import exchange_arrays
 from ..kernels import contact as kc
 from ..materials import layout
 from ..kernels import fem_grid as kf
@@ -141,7 +143,7 @@ class FemGridNodes:
         for r in range(self.world.size):
             idx = self.lent[self.lent_to == r]
             packages.append((clipped[idx], e.v[idx], e.mass[idx], e.node_body[idx]))
-        received = exchange_objects(self.world, packages)
+        received = exchange_arrays(self.world, packages)
         self.guest_counts = [len(part[2]) for part in received]
         return received
 
@@ -155,8 +157,9 @@ class FemGridNodes:
     def swap_rows(self, rows):
         """Send ``rows`` (per local node, (n, 3)) of the lent nodes to their mappers;
         returns what the guests' lenders sent, in guest order."""
-        packages = [rows[self.lent[self.lent_to == r]] for r in range(self.world.size)]
-        return np.concatenate(exchange_objects(self.world, packages)).reshape(-1, 3)
+        packages = [(rows[self.lent[self.lent_to == r]],) for r in range(self.world.size)]
+        received = exchange_arrays(self.world, packages)
+        return np.concatenate([part[0] for part in received]).reshape(-1, 3)
 
     # -- phases of the step ------------------------------------------------------------
     def scatter_mass_momentum(self, state):
@@ -234,10 +237,10 @@ class FemGridNodes:
     def return_to_lenders(self, guest_dv, change):
         """Send each guest's velocity change back to the rank that lent it."""
         edges = np.concatenate([[0], np.cumsum(self.guest_counts)])
-        packages = [guest_dv[edges[r]:edges[r + 1]] for r in range(self.world.size)]
-        received = exchange_objects(self.world, packages)
+        packages = [(guest_dv[edges[r]:edges[r + 1]],) for r in range(self.world.size)]
+        received = exchange_arrays(self.world, packages)
         for r in range(self.world.size):
-            change[self.lent[self.lent_to == r]] = received[r]
+            change[self.lent[self.lent_to == r]] = received[r][0]
 
     # -- the blocks' extent ------------------------------------------------------------
     def spans(self, grids, grid):

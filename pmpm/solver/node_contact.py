@@ -53,7 +53,8 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
 MPI: elements live on the rank of their centroid's slab; a node is held by every rank
 holding one of its elements. Each step every rank sends copies of its master faces whose
 box, grown by the face's depth and its nodes' move, meets the box of another rank's
-slave nodes grown by their move (one allgather of boxes, one all-to-all of faces);
+slave nodes grown by their move (one allgather of boxes, one packed sparse exchange of
+faces, pmpm.comm.sparse);
 each pair is computed on the rank that
 counts its slave node. The Phi sums go to each node's lowest holder and back, and the
 rows of the impulses (slave and master nodes alike) to every holder of the node, all
@@ -62,7 +63,8 @@ node takes the same total, and 1 rank agrees with N to round-off.
 """
 import numpy as np
 
-from ..comm.shared_nodes import exchange_objects, sum_shared_rows
+from ..comm.shared_nodes import sum_shared_rows
+from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
 from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
@@ -210,7 +212,7 @@ class NodeContact(Coupling):
         for r, (b_lo, b_hi) in enumerate(boxes):
             going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != self.world.rank)
             packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
-        return joined_segments([own] + exchange_objects(self.world, packages),
+        return joined_segments([own] + exchange_arrays(self.world, packages),
                                SEGMENT_FIELDS)
 
     # -- the step ---------------------------------------------------------------------

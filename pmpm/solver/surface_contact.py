@@ -70,14 +70,15 @@ is computed on the particle's owner. The phi sums Phi_J of nodes go to the node'
 holder, summed there in (node id, particle id) order, and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
 and 1 rank agrees with N to round-off (the sums are pmpm.solver.contact_sums', shared with
-node-to-surface contact between FEM bodies, pmpm.solver.node_contact). The four messages of a step (halo, phi
-sums and their answers, impulses) are all-to-alls of pickled arrays (pmpm.comm.shared_nodes.
-exchange_objects), simple rather than fast; neighbour messages would do for slabs wider
-than the elements.
+node-to-surface contact between FEM bodies, pmpm.solver.node_contact). The four exchanges of a step (halo, phi
+sums and their answers, impulses) are packed sparse exchanges (pmpm.comm.sparse.
+exchange_arrays): a rank sends one buffer to each rank that gets something from it,
+none to the others.
 """
 import numpy as np
 
-from ..comm.shared_nodes import exchange_objects, swap_with
+from ..comm.shared_nodes import swap_with
+from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
 from ..kernels import surface_contact as ksc
 from .contact import SURFACE_COUPLING
@@ -189,7 +190,7 @@ class SurfaceContact(Coupling):
         for r in range(self.world.size):
             going = (hi >= plane[r]) & (lo <= plane[r + 1]) & (r != self.world.rank)
             packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
-        return joined_segments([own] + exchange_objects(self.world, packages),
+        return joined_segments([own] + exchange_arrays(self.world, packages),
                                SEGMENT_FIELDS)
 
     # -- the step ---------------------------------------------------------------------
