@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .shape import MAX_NODES, stencil
+from .shape import MAX_NODES, stencil, weights
 
 NODAL_COMPONENTS = 8
 
@@ -38,15 +38,13 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
     x, v, mass, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
-    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e, M = np.zeros((MAX_NODES, 3)), np.zeros((3, 3))
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
-                        nodes, w, gx, gy, gz)
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w)
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
         if affine is not None and slot == 0:
@@ -133,9 +131,7 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     if contact is not None:
         slot_of, cnew = contact.slot_of, contact.cnew
-    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e = np.zeros((MAX_NODES, 3))
     bad = -1
     for p in range(x.shape[0]):
@@ -146,8 +142,8 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
                 x[p, d] += dt * v[p, d]
             continue
         b = body[p]
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
-                        w, gx, gy, gz)
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
+                        w)
         dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
         for k in range(reach):
             n, wk = nodes[k], w[k]
