@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .shape import MAX_NODES, stencil, weights
+from .shape import LINEAR, MAX_NODES, point_axes, stencil, weights
 
 NODAL_COMPONENTS = 8
 
@@ -243,6 +243,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     slots = np.full(MAX_NODES, -1, np.int64)
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
+    base, reach = 0, MAX_NODES
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
@@ -251,27 +252,65 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             if stresses:
                 fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
             continue
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
-                        w, gx, gy, gz)
-        if contact is not None:     # every use of ``contact`` sits under a test of None,
-            for k in range(reach):  # so that Numba compiles it away without contact
-                slots[k] = slot_of[nodes[k]]
+        if shape == LINEAR:
+            reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
+                            nodes, w, gx, gy, gz)
+            if contact is not None:     # every use of ``contact`` sits under a test of
+                for k in range(reach):  # None, so Numba compiles it away without contact
+                    slots[k] = slot_of[nodes[k]]
+        else:
+            base, _ = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b],
+                                 axes)
+            for d in range(3):
+                for j in range(3):
+                    axes[3 * d + 1, j] *= inv_h
         if stresses:
             Lg[:, :] = 0.0          # L_ij = sum_I v_Ii dN_I/dx_j, written out: as an
-            for k in range(reach):  # inlined call it costs 7 % of the step in reference
-                n, s = nodes[k], slots[k]       # counting
-                if s < 0:
-                    for i in range(3):
-                        vi = gvel[n, i]
-                        Lg[i, 0] += vi * gx[k]
-                        Lg[i, 1] += vi * gy[k]
-                        Lg[i, 2] += vi * gz[k]
-                elif contact is not None:
-                    for i in range(3):
-                        vi = cvel[s, b, i]
-                        Lg[i, 0] += vi * gx[k]
-                        Lg[i, 1] += vi * gy[k]
-                        Lg[i, 2] += vi * gz[k]
+            if shape == LINEAR:     # inlined call it costs 7 % of the step in reference
+                for k in range(reach):          # counting
+                    n, s = nodes[k], slots[k]
+                    if s < 0:
+                        for i in range(3):
+                            vi = gvel[n, i]
+                            Lg[i, 0] += vi * gx[k]
+                            Lg[i, 1] += vi * gy[k]
+                            Lg[i, 2] += vi * gz[k]
+                    elif contact is not None:
+                        for i in range(3):
+                            vi = cvel[s, b, i]
+                            Lg[i, 0] += vi * gx[k]
+                            Lg[i, 1] += vi * gy[k]
+                            Lg[i, 2] += vi * gz[k]
+            else:                   # the tensor product, a row of 3 nodes at a time:
+                for a in range(3):  # sum_c v (w_c, w'_c), then times the row's factors
+                    for j in range(3):
+                        row = base + a * strides[0] + j * strides[1]
+                        s0 = s1 = s2 = t0 = t1 = t2 = 0.0
+                        for t in range(3):
+                            n = row + t * strides[2]
+                            u0, u1, u2 = gvel[n, 0], gvel[n, 1], gvel[n, 2]
+                            if contact is not None:
+                                s = slot_of[n]
+                                if s >= 0:
+                                    u0, u1, u2 = cvel[s, b, 0], cvel[s, b, 1], cvel[s, b, 2]
+                            wc, dc = axes[6, t], axes[7, t]
+                            s0 += u0 * wc
+                            s1 += u1 * wc
+                            s2 += u2 * wc
+                            t0 += u0 * dc
+                            t1 += u1 * dc
+                            t2 += u2 * dc
+                        gxab, gyab = axes[1, a] * axes[3, j], axes[0, a] * axes[4, j]
+                        wab = axes[0, a] * axes[3, j]
+                        Lg[0, 0] += s0 * gxab
+                        Lg[0, 1] += s0 * gyab
+                        Lg[0, 2] += t0 * wab
+                        Lg[1, 0] += s1 * gxab
+                        Lg[1, 1] += s1 * gyab
+                        Lg[1, 2] += t1 * wab
+                        Lg[2, 0] += s2 * gxab
+                        Lg[2, 1] += s2 * gyab
+                        Lg[2, 2] += t2 * wab
             c = update_stress_columns(p, codes[b], params[b], dt, h, Lg, stress, F, rho,
                                       eps_p, e_int, temp, q, damage, w_p)
             if c < 0.0 and bad < 0:
@@ -288,19 +327,43 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             ex += ls * load_vec[li, 0]
             ey += ls * load_vec[li, 1]
             ez += ls * load_vec[li, 2]
-        for k in range(reach):
-            n = nodes[k]
-            f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
-            f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
-            f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
-            force[n, 0] += f0
-            force[n, 1] += f1
-            force[n, 2] += f2
-            if contact is not None:
-                if slots[k] >= 0:
-                    cforce[slots[k], b, 0] += f0
-                    cforce[slots[k], b, 1] += f1
-                    cforce[slots[k], b, 2] += f2
+        if shape == LINEAR:
+            for k in range(reach):
+                n = nodes[k]
+                f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
+                f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
+                f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+                force[n, 0] += f0
+                force[n, 1] += f1
+                force[n, 2] += f2
+                if contact is not None:
+                    if slots[k] >= 0:
+                        cforce[slots[k], b, 0] += f0
+                        cforce[slots[k], b, 1] += f1
+                        cforce[slots[k], b, 2] += f2
+            continue
+        for a in range(3):          # f = w_c P_ab + w'_c Q_ab along each row of 3 nodes
+            for j in range(3):
+                row = base + a * strides[0] + j * strides[1]
+                gxab, gyab = axes[1, a] * axes[3, j], axes[0, a] * axes[4, j]
+                wab = axes[0, a] * axes[3, j]
+                p0 = wab * ex - vol * (sxx * gxab + sxy * gyab)
+                p1 = wab * ey - vol * (sxy * gxab + syy * gyab)
+                p2 = wab * ez - vol * (szx * gxab + syz * gyab)
+                q0, q1, q2 = -vol * szx * wab, -vol * syz * wab, -vol * szz * wab
+                for t in range(3):
+                    n = row + t * strides[2]
+                    wc, dc = axes[6, t], axes[7, t]
+                    f0, f1, f2 = wc * p0 + dc * q0, wc * p1 + dc * q1, wc * p2 + dc * q2
+                    force[n, 0] += f0
+                    force[n, 1] += f1
+                    force[n, 2] += f2
+                    if contact is not None:
+                        s = slot_of[n]
+                        if s >= 0:
+                            cforce[s, b, 0] += f0
+                            cforce[s, b, 1] += f1
+                            cforce[s, b, 2] += f2
     return fastest, bad
 
 
