@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .shape import LINEAR, MAX_NODES, point_axes, stencil, weights
+from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
 
@@ -43,10 +43,25 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
-        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
-                        nodes, w)
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
+        if shape != LINEAR and affine is None:      # the tensor product, row by row
+            base, _ = point_weights(x, p, origin, inv_h, lo, strides, shape,
+                                    half_width[body[p]], axes)
+            v0, v1, v2 = v[p, 0], v[p, 1], v[p, 2]
+            for a in range(3):
+                for j in range(3):
+                    wab = axes[0, a] * axes[3, j]
+                    row = base + a * strides[0] + j * strides[1]
+                    for t in range(3):
+                        n, mw = row + t * strides[2], m * (wab * axes[6, t])
+                        nodal[n, slot] += mw
+                        nodal[n, slot + 1] += mw * v0
+                        nodal[n, slot + 2] += mw * v1
+                        nodal[n, slot + 3] += mw * v2
+            continue
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w)
         if affine is not None and slot == 0:
             node_offsets(axes, e)
             affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
@@ -142,28 +157,55 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
                 x[p, d] += dt * v[p, d]
             continue
         b = body[p]
-        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
-                        w)
         dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
-        for k in range(reach):
-            n, wk = nodes[k], w[k]
-            s = -1
-            if contact is not None:
-                s = slot_of[n]
-            if s < 0:
-                dx0 += wk * gnew[n, 0]
-                dx1 += wk * gnew[n, 1]
-                dx2 += wk * gnew[n, 2]
-                dv0 += wk * gnew[n, 3]
-                dv1 += wk * gnew[n, 4]
-                dv2 += wk * gnew[n, 5]
-            elif contact is not None:
-                dx0 += wk * cnew[s, b, 0]
-                dx1 += wk * cnew[s, b, 1]
-                dx2 += wk * cnew[s, b, 2]
-                dv0 += wk * cnew[s, b, 3]
-                dv1 += wk * cnew[s, b, 4]
-                dv2 += wk * cnew[s, b, 5]
+        if shape != LINEAR and affine is None:      # the tensor product, row by row
+            base, _ = point_weights(x, p, origin, inv_h, lo, strides, shape, half_width[b],
+                                    axes)
+            for a in range(3):
+                for j in range(3):
+                    wab = axes[0, a] * axes[3, j]
+                    row = base + a * strides[0] + j * strides[1]
+                    for t in range(3):
+                        n, wk = row + t * strides[2], wab * axes[6, t]
+                        s = -1
+                        if contact is not None:
+                            s = slot_of[n]
+                        if s < 0:
+                            dx0 += wk * gnew[n, 0]
+                            dx1 += wk * gnew[n, 1]
+                            dx2 += wk * gnew[n, 2]
+                            dv0 += wk * gnew[n, 3]
+                            dv1 += wk * gnew[n, 4]
+                            dv2 += wk * gnew[n, 5]
+                        elif contact is not None:
+                            dx0 += wk * cnew[s, b, 0]
+                            dx1 += wk * cnew[s, b, 1]
+                            dx2 += wk * cnew[s, b, 2]
+                            dv0 += wk * cnew[s, b, 3]
+                            dv1 += wk * cnew[s, b, 4]
+                            dv2 += wk * cnew[s, b, 5]
+        else:
+            reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
+                            nodes, w)
+            for k in range(reach):
+                n, wk = nodes[k], w[k]
+                s = -1
+                if contact is not None:
+                    s = slot_of[n]
+                if s < 0:
+                    dx0 += wk * gnew[n, 0]
+                    dx1 += wk * gnew[n, 1]
+                    dx2 += wk * gnew[n, 2]
+                    dv0 += wk * gnew[n, 3]
+                    dv1 += wk * gnew[n, 4]
+                    dv2 += wk * gnew[n, 5]
+                elif contact is not None:
+                    dx0 += wk * cnew[s, b, 0]
+                    dx1 += wk * cnew[s, b, 1]
+                    dx2 += wk * cnew[s, b, 2]
+                    dv0 += wk * cnew[s, b, 3]
+                    dv1 += wk * cnew[s, b, 4]
+                    dv2 += wk * cnew[s, b, 5]
         if affine is not None:
             _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
         x[p, 0] += dt * dx0

@@ -165,6 +165,18 @@ def stencil(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w, gx, gy, 
     return k
 
 
+@njit(cache=True, inline="always")
+def point_weights(x, p, origin, inv_h, lo, strides, kind, lp, axes):
+    """:func:`point_axes` without the derivatives: ``axes``' rows 3d and 3d + 2 (the 1D
+    weights and offsets along axis d); returns (flat local index of the first node,
+    nodes per axis)."""
+    base, count = 0, 3
+    for d in range(3):
+        first, count = axis_weights((x[p, d] - origin[d]) * inv_h, kind, lp, axes, 3 * d)
+        base += (first - lo[d]) * strides[d]
+    return base, count
+
+
 @njit(cache=True, forceinline=True)
 def weights(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w):
     """:func:`stencil` without the gradients: the local node indices and weights of
@@ -187,10 +199,7 @@ def weights(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w):
                     w[k] = wx * wy * (r2 if c else 1.0 - r2)
                     k += 1
         return 8
-    base, count = 0, 3
-    for d in range(3):
-        first, count = axis_weights((x[p, d] - origin[d]) * inv_h, kind, lp, axes, 3 * d)
-        base += (first - lo[d]) * strides[d]
+    base, count = point_weights(x, p, origin, inv_h, lo, strides, kind, lp, axes)
     k = 0
     for a in range(count):
         for b in range(count):
