@@ -17,9 +17,10 @@ class InputError(Exception):
 
 
 
-def run_case(world, args):
-    """Run the case of ``args`` on ``world``; returns the summary.json path."""
-    config, case_text, case = load_checked_case(args.case, args.overrides)
+def run_case(world, args, loaded=None):
+    """Run the case of ``args`` on ``world`` (``loaded``: what :func:`load_checked_case`
+    returned for it, if already called); returns the summary.json path."""
+    config, case_text, case = loaded or load_checked_case(args.case, args.overrides)
     if world.is_root:
         warn_about_case(case, args.case)
     out = args.out or os.path.join("results", _stem(args.case))
@@ -31,7 +32,7 @@ def run_case(world, args):
             release_lock(out)
 
 
-def check_case(world, args):
+def check_case(world, args, loaded=None):
     """``--check``: validate the case, lay its bodies out and decompose it as a run would,
     and return the lines that say what the run would be (particles and elements, steps,
     output, memory, the output directory), without compiling a kernel or touching the
@@ -40,7 +41,7 @@ def check_case(world, args):
     from .case.size import case_estimate, needed_bytes, _bytes
     from .solver.estimate import check_size, initial_speed
     from .solver.simulation import Simulation
-    config, _, case = load_checked_case(args.case, args.overrides)
+    config, _, case = loaded or load_checked_case(args.case, args.overrides)
     if world.is_root:
         warn_about_case(case, args.case)
     case_dir = os.path.dirname(os.path.abspath(args.case))

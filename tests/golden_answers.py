@@ -23,7 +23,8 @@ GOLDEN = os.path.join(ROOT, "tests", "golden", "answers.json")
 
 #: name -> (case file, --set overrides): each a few seconds, covering USF and MUSL,
 #: contact methods 1 and 2 with and without the separation check, friction, tied
-#: windows (fixed and following a body, with splitting), loads and gravity.
+#: windows (fixed and following a body, with splitting), loads and gravity, the hats and
+#: gimp.
 COARSE = {
     "bench_block": (f"{RUNS}/bench_block.yaml",
                     ["params.edge=10", "params.cell=2", "time.end=0.004"]),
@@ -58,6 +59,12 @@ COARSE = {
                         ["params.cell=1", "params.width=2", "params.ratio=2",
                          "time.end=0.01", "output.times=[]"]),
     "window_follow": (f"{CASES}/window_follow.yaml", []),
+    # the default 27-node shapes (the cases above name the hats, except planar_shock)
+    "taylor_bar_gimp": (f"{RUNS}/taylor_bar.yaml",
+                        ["params.cell=1.52", "params.refined=4.56", "time.end=0.02",
+                         "grid.shape_functions=gimp"]),
+    "rings_gimp": (f"{RUNS}/rings.yaml", ["params.cell=5", "time.end=0.6", "output.times=[]",
+                                          "grid.shape_functions=gimp"]),
 }
 
 RANKS = (1, 2)

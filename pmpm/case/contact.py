@@ -133,7 +133,9 @@ CONTACT = {
                         "shape-function-weighted mean positions of the two bodies' particles "
                         "there lie at most this many cell sizes (of the node's grid level) "
                         "apart along the normal; left out or `none`: no check, the paper's "
-                        "detection (Sec. 2.2)"),
+                        "detection (Sec. 2.2). With grid coupling (CFEMP) it is the "
+                        "improved detection of Ma et al. that seed 004 Sec. 2.4.1 uses "
+                        "(0.9: docs/validation/sphere_rolling_fem.md)"),
     "release": Field(RELEASE, AUTO, "cells",
                      "the release rule (methods 1 and 2): no contact force at a node where "
                      "the two bodies' surfaces, placed half a particle spacing beyond their "

@@ -12,7 +12,6 @@ points within round-off of the surface).
 """
 import numpy as np
 
-from ..kernels.inside import column_crossings, parity_inside
 from .mesh import CHUNK, MeshReadError, _read_mesh
 from .shapes import TOL
 
@@ -108,6 +107,7 @@ def lattice_points_in_surface(points, triangles, anchor, spacing, clip=None):
     counts = np.floor((hi - anchor) / spacing - 0.5 + TOL).astype(np.int64) - first + 1
     if np.any(counts <= 0):
         return np.zeros((0, 3))
+    from ..kernels.inside import parity_inside     # numba: not for a case's validation
     rays = [_crossings(points, triangles, axis, anchor, spacing, first, counts)
             for axis in range(3)]
     kept = []
@@ -122,6 +122,7 @@ def lattice_points_in_surface(points, triangles, anchor, spacing, clip=None):
 def _crossings(points, triangles, axis, anchor, spacing, first, counts):
     """(starts, ts): the crossings along ``axis`` of every column, sorted, column c's
     being ts[starts[c]:starts[c + 1]]."""
+    from ..kernels.inside import column_crossings
     cols, ts = column_crossings(points, triangles, axis, anchor, spacing, first, counts)
     a, b = (axis + 1) % 3, (axis + 2) % 3
     order = np.lexsort((ts, cols))

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .boundary import constrain_coded
-from .shape import MAX_NODES, stencil
+from .shape import MAX_NODES, weights
 
 
 @njit(cache=True)
@@ -27,14 +27,13 @@ def node_forces_to_grid(pts, geo, force, node_force, slot_of, cforce, want):
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    w = np.empty(MAX_NODES)
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
         b = body[p]
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
-                        nodes, w, gx, gy, gz)
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
+                        nodes, w)
         for k in range(reach):
             n, wk = nodes[k], w[k]
             s = slot_of[n]
@@ -78,15 +77,14 @@ def contact_velocity_changes(pts, geo, slot_of, dacc, dt, rigid, dv, want):
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    w = np.empty(MAX_NODES)
     for p in range(x.shape[0]):
         dv[p, 0] = dv[p, 1] = dv[p, 2] = 0.0
         b = body[p]
         if level[p] != want or rigid[b]:
             continue
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
-                        nodes, w, gx, gy, gz)
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
+                        nodes, w)
         for k in range(reach):
             s = slot_of[nodes[k]]
             if s < 0:

@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .shape import MAX_NODES, stencil
+from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
 
@@ -38,17 +38,30 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
     x, v, mass, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
-    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e, M = np.zeros((MAX_NODES, 3)), np.zeros((3, 3))
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
-                        nodes, w, gx, gy, gz)
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
+        if shape != LINEAR and affine is None:      # the tensor product, row by row
+            base, _ = point_weights(x, p, origin, inv_h, lo, strides, shape,
+                                    half_width[body[p]], axes)
+            v0, v1, v2 = v[p, 0], v[p, 1], v[p, 2]
+            for a in range(3):
+                for j in range(3):
+                    wab = axes[0, a] * axes[3, j]
+                    row = base + a * strides[0] + j * strides[1]
+                    for t in range(3):
+                        n, mw = row + t * strides[2], m * (wab * axes[6, t])
+                        nodal[n, slot] += mw
+                        nodal[n, slot + 1] += mw * v0
+                        nodal[n, slot + 2] += mw * v1
+                        nodal[n, slot + 3] += mw * v2
+            continue
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w)
         if affine is not None and slot == 0:
             node_offsets(axes, e)
             affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
@@ -133,9 +146,7 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     if contact is not None:
         slot_of, cnew = contact.slot_of, contact.cnew
-    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e = np.zeros((MAX_NODES, 3))
     bad = -1
     for p in range(x.shape[0]):
@@ -146,28 +157,55 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
                 x[p, d] += dt * v[p, d]
             continue
         b = body[p]
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
-                        w, gx, gy, gz)
         dx0 = dx1 = dx2 = dv0 = dv1 = dv2 = 0.0
-        for k in range(reach):
-            n, wk = nodes[k], w[k]
-            s = -1
-            if contact is not None:
-                s = slot_of[n]
-            if s < 0:
-                dx0 += wk * gnew[n, 0]
-                dx1 += wk * gnew[n, 1]
-                dx2 += wk * gnew[n, 2]
-                dv0 += wk * gnew[n, 3]
-                dv1 += wk * gnew[n, 4]
-                dv2 += wk * gnew[n, 5]
-            elif contact is not None:
-                dx0 += wk * cnew[s, b, 0]
-                dx1 += wk * cnew[s, b, 1]
-                dx2 += wk * cnew[s, b, 2]
-                dv0 += wk * cnew[s, b, 3]
-                dv1 += wk * cnew[s, b, 4]
-                dv2 += wk * cnew[s, b, 5]
+        if shape != LINEAR and affine is None:      # the tensor product, row by row
+            base, _ = point_weights(x, p, origin, inv_h, lo, strides, shape, half_width[b],
+                                    axes)
+            for a in range(3):
+                for j in range(3):
+                    wab = axes[0, a] * axes[3, j]
+                    row = base + a * strides[0] + j * strides[1]
+                    for t in range(3):
+                        n, wk = row + t * strides[2], wab * axes[6, t]
+                        s = -1
+                        if contact is not None:
+                            s = slot_of[n]
+                        if s < 0:
+                            dx0 += wk * gnew[n, 0]
+                            dx1 += wk * gnew[n, 1]
+                            dx2 += wk * gnew[n, 2]
+                            dv0 += wk * gnew[n, 3]
+                            dv1 += wk * gnew[n, 4]
+                            dv2 += wk * gnew[n, 5]
+                        elif contact is not None:
+                            dx0 += wk * cnew[s, b, 0]
+                            dx1 += wk * cnew[s, b, 1]
+                            dx2 += wk * cnew[s, b, 2]
+                            dv0 += wk * cnew[s, b, 3]
+                            dv1 += wk * cnew[s, b, 4]
+                            dv2 += wk * cnew[s, b, 5]
+        else:
+            reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
+                            nodes, w)
+            for k in range(reach):
+                n, wk = nodes[k], w[k]
+                s = -1
+                if contact is not None:
+                    s = slot_of[n]
+                if s < 0:
+                    dx0 += wk * gnew[n, 0]
+                    dx1 += wk * gnew[n, 1]
+                    dx2 += wk * gnew[n, 2]
+                    dv0 += wk * gnew[n, 3]
+                    dv1 += wk * gnew[n, 4]
+                    dv2 += wk * gnew[n, 5]
+                elif contact is not None:
+                    dx0 += wk * cnew[s, b, 0]
+                    dx1 += wk * cnew[s, b, 1]
+                    dx2 += wk * cnew[s, b, 2]
+                    dv0 += wk * cnew[s, b, 3]
+                    dv1 += wk * cnew[s, b, 4]
+                    dv2 += wk * cnew[s, b, 5]
         if affine is not None:
             _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
         x[p, 0] += dt * dx0
@@ -247,6 +285,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     slots = np.full(MAX_NODES, -1, np.int64)
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
+    base, reach = 0, MAX_NODES
     for p in range(x.shape[0]):
         if level[p] != want:
             continue
@@ -255,27 +294,65 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             if stresses:
                 fastest = max(fastest, np.sqrt(v[p, 0] ** 2 + v[p, 1] ** 2 + v[p, 2] ** 2))
             continue
-        reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes, nodes,
-                        w, gx, gy, gz)
-        if contact is not None:     # every use of ``contact`` sits under a test of None,
-            for k in range(reach):  # so that Numba compiles it away without contact
-                slots[k] = slot_of[nodes[k]]
+        if shape == LINEAR:
+            reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
+                            nodes, w, gx, gy, gz)
+            if contact is not None:     # every use of ``contact`` sits under a test of
+                for k in range(reach):  # None, so Numba compiles it away without contact
+                    slots[k] = slot_of[nodes[k]]
+        else:
+            base, _ = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b],
+                                 axes)
+            for d in range(3):
+                for j in range(3):
+                    axes[3 * d + 1, j] *= inv_h
         if stresses:
             Lg[:, :] = 0.0          # L_ij = sum_I v_Ii dN_I/dx_j, written out: as an
-            for k in range(reach):  # inlined call it costs 7 % of the step in reference
-                n, s = nodes[k], slots[k]       # counting
-                if s < 0:
-                    for i in range(3):
-                        vi = gvel[n, i]
-                        Lg[i, 0] += vi * gx[k]
-                        Lg[i, 1] += vi * gy[k]
-                        Lg[i, 2] += vi * gz[k]
-                elif contact is not None:
-                    for i in range(3):
-                        vi = cvel[s, b, i]
-                        Lg[i, 0] += vi * gx[k]
-                        Lg[i, 1] += vi * gy[k]
-                        Lg[i, 2] += vi * gz[k]
+            if shape == LINEAR:     # inlined call it costs 7 % of the step in reference
+                for k in range(reach):          # counting
+                    n, s = nodes[k], slots[k]
+                    if s < 0:
+                        for i in range(3):
+                            vi = gvel[n, i]
+                            Lg[i, 0] += vi * gx[k]
+                            Lg[i, 1] += vi * gy[k]
+                            Lg[i, 2] += vi * gz[k]
+                    elif contact is not None:
+                        for i in range(3):
+                            vi = cvel[s, b, i]
+                            Lg[i, 0] += vi * gx[k]
+                            Lg[i, 1] += vi * gy[k]
+                            Lg[i, 2] += vi * gz[k]
+            else:                   # the tensor product, a row of 3 nodes at a time:
+                for a in range(3):  # sum_c v (w_c, w'_c), then times the row's factors
+                    for j in range(3):
+                        row = base + a * strides[0] + j * strides[1]
+                        s0 = s1 = s2 = t0 = t1 = t2 = 0.0
+                        for t in range(3):
+                            n = row + t * strides[2]
+                            u0, u1, u2 = gvel[n, 0], gvel[n, 1], gvel[n, 2]
+                            if contact is not None:
+                                s = slot_of[n]
+                                if s >= 0:
+                                    u0, u1, u2 = cvel[s, b, 0], cvel[s, b, 1], cvel[s, b, 2]
+                            wc, dc = axes[6, t], axes[7, t]
+                            s0 += u0 * wc
+                            s1 += u1 * wc
+                            s2 += u2 * wc
+                            t0 += u0 * dc
+                            t1 += u1 * dc
+                            t2 += u2 * dc
+                        gxab, gyab = axes[1, a] * axes[3, j], axes[0, a] * axes[4, j]
+                        wab = axes[0, a] * axes[3, j]
+                        Lg[0, 0] += s0 * gxab
+                        Lg[0, 1] += s0 * gyab
+                        Lg[0, 2] += t0 * wab
+                        Lg[1, 0] += s1 * gxab
+                        Lg[1, 1] += s1 * gyab
+                        Lg[1, 2] += t1 * wab
+                        Lg[2, 0] += s2 * gxab
+                        Lg[2, 1] += s2 * gyab
+                        Lg[2, 2] += t2 * wab
             c = update_stress_columns(p, codes[b], params[b], dt, h, Lg, stress, F, rho,
                                       eps_p, e_int, temp, q, damage, w_p)
             if c < 0.0 and bad < 0:
@@ -292,19 +369,43 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             ex += ls * load_vec[li, 0]
             ey += ls * load_vec[li, 1]
             ez += ls * load_vec[li, 2]
-        for k in range(reach):
-            n = nodes[k]
-            f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
-            f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
-            f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
-            force[n, 0] += f0
-            force[n, 1] += f1
-            force[n, 2] += f2
-            if contact is not None:
-                if slots[k] >= 0:
-                    cforce[slots[k], b, 0] += f0
-                    cforce[slots[k], b, 1] += f1
-                    cforce[slots[k], b, 2] += f2
+        if shape == LINEAR:
+            for k in range(reach):
+                n = nodes[k]
+                f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
+                f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
+                f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
+                force[n, 0] += f0
+                force[n, 1] += f1
+                force[n, 2] += f2
+                if contact is not None:
+                    if slots[k] >= 0:
+                        cforce[slots[k], b, 0] += f0
+                        cforce[slots[k], b, 1] += f1
+                        cforce[slots[k], b, 2] += f2
+            continue
+        for a in range(3):          # f = w_c P_ab + w'_c Q_ab along each row of 3 nodes
+            for j in range(3):
+                row = base + a * strides[0] + j * strides[1]
+                gxab, gyab = axes[1, a] * axes[3, j], axes[0, a] * axes[4, j]
+                wab = axes[0, a] * axes[3, j]
+                p0 = wab * ex - vol * (sxx * gxab + sxy * gyab)
+                p1 = wab * ey - vol * (sxy * gxab + syy * gyab)
+                p2 = wab * ez - vol * (szx * gxab + syz * gyab)
+                q0, q1, q2 = -vol * szx * wab, -vol * syz * wab, -vol * szz * wab
+                for t in range(3):
+                    n = row + t * strides[2]
+                    wc, dc = axes[6, t], axes[7, t]
+                    f0, f1, f2 = wc * p0 + dc * q0, wc * p1 + dc * q1, wc * p2 + dc * q2
+                    force[n, 0] += f0
+                    force[n, 1] += f1
+                    force[n, 2] += f2
+                    if contact is not None:
+                        s = slot_of[n]
+                        if s >= 0:
+                            cforce[s, b, 0] += f0
+                            cforce[s, b, 1] += f1
+                            cforce[s, b, 2] += f2
     return fastest, bad
 
 

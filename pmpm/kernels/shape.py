@@ -66,6 +66,31 @@ def axis_stencil(s, kind, lp, axes, row):
 
 
 @njit(cache=True, inline="always")
+def axis_weights(s, kind, lp, axes, row):
+    """:func:`axis_stencil` without the derivatives (``axes[row + 1]`` is left as it
+    was): the particle-to-grid and grid-to-particle passes need only the weights."""
+    if kind == LINEAR:
+        c = np.floor(s)
+        r = s - c
+        axes[row, 0], axes[row, 1] = 1.0 - r, r
+        axes[row + 2, 0], axes[row + 2, 1] = r, r - 1.0
+        return np.int64(c), 2
+    c = np.floor(s + 0.5)
+    d = s - c
+    axes[row + 2, 0], axes[row + 2, 1], axes[row + 2, 2] = d + 1.0, d, d - 1.0
+    if kind == BSPLINE:
+        axes[row, 0] = 0.5 * (0.5 - d) ** 2
+        axes[row, 1] = 0.75 - d * d
+        axes[row, 2] = 0.5 * (0.5 + d) ** 2
+    else:
+        inv_width = 0.5 / lp
+        for j in range(3):
+            r = axes[row + 2, j]
+            axes[row, j] = (_hat_integral(r + lp) - _hat_integral(r - lp)) * inv_width
+    return np.int64(c) - 1, 3
+
+
+@njit(cache=True, inline="always")
 def _gimp(r, lp):
     """uGIMP weight and its derivative along the offset ``r`` (cells), half-width lp: the
     hat averaged over [r - lp, r + lp], written with the hat's running integral
@@ -136,6 +161,53 @@ def stencil(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w, gx, gy, 
                 gx[k] = axes[1, a] * axes[3, b] * axes[6, c]
                 gy[k] = axes[0, a] * axes[4, b] * axes[6, c]
                 gz[k] = axes[0, a] * axes[3, b] * axes[7, c]
+                k += 1
+    return k
+
+
+@njit(cache=True, inline="always")
+def point_weights(x, p, origin, inv_h, lo, strides, kind, lp, axes):
+    """:func:`point_axes` without the derivatives: ``axes``' rows 3d and 3d + 2 (the 1D
+    weights and offsets along axis d); returns (flat local index of the first node,
+    nodes per axis)."""
+    base, count = 0, 3
+    for d in range(3):
+        first, count = axis_weights((x[p, d] - origin[d]) * inv_h, kind, lp, axes, 3 * d)
+        base += (first - lo[d]) * strides[d]
+    return base, count
+
+
+@njit(cache=True, forceinline=True)
+def weights(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w):
+    """:func:`stencil` without the gradients: the local node indices and weights of
+    particle ``p`` (and the offsets of ``axes``' rows 3d + 2, which APIC reads); returns
+    how many nodes it reaches. The transfers (particles to grid and back) read no
+    gradient, and with the 27-node shapes computing them cost about a third of those
+    passes."""
+    if kind == LINEAR:
+        r0, b0 = _axis(x, p, 0, origin, inv_h, lo, strides)
+        r1, b1 = _axis(x, p, 1, origin, inv_h, lo, strides)
+        r2, b2 = _axis(x, p, 2, origin, inv_h, lo, strides)
+        base = b0 + b1 + b2
+        k = 0
+        for a in range(2):
+            wx = r0 if a else 1.0 - r0
+            for b in range(2):
+                wy = r1 if b else 1.0 - r1
+                for c in range(2):
+                    nodes[k] = base + a * strides[0] + b * strides[1] + c * strides[2]
+                    w[k] = wx * wy * (r2 if c else 1.0 - r2)
+                    k += 1
+        return 8
+    base, count = point_weights(x, p, origin, inv_h, lo, strides, kind, lp, axes)
+    k = 0
+    for a in range(count):
+        for b in range(count):
+            wab = axes[0, a] * axes[3, b]
+            row = base + a * strides[0] + b * strides[1]
+            for c in range(count):
+                nodes[k] = row + c * strides[2]
+                w[k] = wab * axes[6, c]
                 k += 1
     return k
 
