@@ -104,3 +104,30 @@ def test_the_initial_cut_balances_the_weighted_work():
     assert gap[cut - 1] <= w * np.bincount(cells, minlength=n).max()
     plain = [abs(np.subtract(*side_work(c, cells, None, n))) for c in range(1, n)]
     assert int(np.argmin(plain)) + 1 < cut    # counted 1 each, the plane sits further left
+
+
+def test_a_restart_on_more_ranks_cuts_from_the_weighted_elements_too():
+    """A checkpoint's elements (every rank reads them all) join the particles' histogram
+    by their centroids, whatever the order of its node rows, with their weight."""
+    from pmpm.grid import CoarseGrid
+    from pmpm.solver.simulation import checkpoint_histograms
+    grid = CoarseGrid(np.zeros(3), 1.0, [4, 1, 1], {})
+    unit = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                     [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    x = np.concatenate([unit + [2, 0, 0], unit + [3, 0, 0]])      # cells 2 and 3 in x
+    node_id = np.array([7, 3, 12, 5, 9, 0, 14, 2, 4, 1, 6, 8, 10, 11, 13, 15])
+    rows = np.random.default_rng(1).permutation(16)                 # rows in any order
+    groups = {"nodes": {"node_id": node_id[rows], "x": x[rows]},
+              "elements": {"hexes": np.array([node_id[:8], node_id[8:]]),
+                           "body": np.array([1, 1])}}
+    config = SimpleNamespace(bodies=[SimpleNamespace(method="particles", fem=None),
+                                     SimpleNamespace(method="fem", fem=fem())],
+                             grid=SimpleNamespace(shape_functions="linear"))
+    world = SimpleNamespace(sum=lambda h: h)
+    particles = SimpleNamespace(x=np.array([[0.5, 0.5, 0.5], [0.2, 0.5, 0.5]]))
+    bodies = SimpleNamespace(rigid=np.array([False, False]))
+    hx = checkpoint_histograms(world, config, grid, bodies, particles, groups)[0]
+    w = ww.element_weight(fem(), False, "linear")
+    assert hx.tolist() == [2.0, 0.0, w, w]
+    assert checkpoint_histograms(world, config, grid, bodies, particles, {})[0].tolist() \
+        == [2, 0, 0, 0]

@@ -178,7 +178,7 @@ class Simulation:
         particles = Particles(columns)
         slabs = Slabs(scalars["slab_axis"], scalars["slab_bounds"])
         if len(slabs.bounds) != world.size + 1:
-            counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
+            counts = checkpoint_histograms(world, config, grid, bodies, particles, groups)
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]],
                                  slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         refined = scalars.get("refine")
@@ -357,6 +357,21 @@ def initial_histograms(config, grid, x, meshes):
     centroids = [m.points[m.hexes].mean(axis=1) for m in meshes.values()]
     each = [np.ones(len(x))] + [np.full(len(m.hexes), weights[b]) for b, m in meshes.items()]
     return grid.cell_histograms(np.concatenate([x] + centroids), np.concatenate(each))
+
+
+def checkpoint_histograms(world, config, grid, bodies, particles, groups):
+    """The histograms a restart on another number of ranks cuts its slabs from: this
+    rank's particles summed over the ranks, plus the checkpoint's elements (every rank
+    reads them all: not summed) by their centroids and weights (solver.work_weights)."""
+    counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
+    if not groups or not groups.get("elements"):
+        return counts
+    elements, nodes = groups["elements"], groups["nodes"]
+    order = np.argsort(nodes["node_id"], kind="stable")
+    corners = np.searchsorted(nodes["node_id"][order], elements["hexes"])
+    centroids = nodes["x"][order][corners].mean(axis=1)
+    weights = body_weights(config, bodies.rigid)[elements["body"]]
+    return [c + e for c, e in zip(counts, grid.cell_histograms(centroids, weights))]
 
 
 def supported_fem_bodies(world, elements, n_bodies):
