@@ -19,9 +19,11 @@ reduced, stiffness 4.5     1.75   1.75
 assumed_strain     4.25    1.5    1.5
 rigid              0.5     0.25   0.25
 =================  ======  =====  =======
- A rigid FEM body's elements are not stepped
-(pmpm.fem.elements skips them); its nodes still are. Contact, coupling and the material
-change these ratios somewhat; the table holds the step itself.
+
+A rigid FEM body's elements are not stepped (pmpm.fem.elements skips them); its nodes
+still are. Contact, coupling and the material change these ratios (an elastic striker
+on an elastic bar steps cheaper than the Johnson-Cook block, its particles more so); the
+table holds the step itself.
 
 The weights are fixed numbers, never timings of the running case: a run cuts its slabs
 the same way every time, on every machine. They are rounded to quarters, so that the
