@@ -12,9 +12,10 @@ element / particle that pmpm.solver.work_weights tabulates.
 
 Writes results/element_weights/weights.{json,md}.
 
-Usage: .venv/bin/python scripts/element_weights.py [--repeat 3] [--edge 25]
+Usage: .venv/bin/python scripts/element_weights.py [--repeat 3] [--edge 25] [--merge JSON]
 """
 import argparse
+import json
 import os
 import statistics
 
@@ -55,9 +56,14 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--edge", type=float, default=25.0)
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "element_weights"))
+    parser.add_argument("--merge", metavar="JSON", help="an earlier weights.json of the same "
+                        "variants: its samples join this run's (more repeats in two sittings)")
     args = parser.parse_args()
     cases = variants(args.edge)
     samples = {name: [] for name in cases}
+    if args.merge:
+        with open(args.merge, encoding="utf-8") as f:
+            samples = {name: list(v) for name, v in json.load(f)["samples_s"].items()}
     for repeat in range(args.repeat):
         for name, (case, sets) in cases.items():
             s = run_case(case, os.path.join(args.out, name), 1, sets)
