@@ -167,10 +167,14 @@ OUTPUT = {
 DECOMPOSITION = {
     "axis": Field(choice(("auto", "x", "y", "z"), "axis"), "auto",
                   doc="axis the grid is cut into slabs of coarse cells along (`auto`: the "
-                      "one that balances the particles best)"),
+                      "one that balances the work best)"),
     "rebalance_threshold": Field(number(greater(0)), 0.2, "1",
-                                 "the slabs are moved when max/mean particles per rank - 1 "
-                                 "exceeds it"),
+                                 "the slabs are moved when the weighted imbalance, max/mean "
+                                 "work per rank - 1, exceeds it: a particle counts 1, an FEM "
+                                 "element (by its centroid) what its step costs in "
+                                 "particle-steps of the case's shape functions, a fixed "
+                                 "table per element formulation (pmpm.solver.work_weights; "
+                                 "summary.json: `element_weights`, `slabs.imbalance`)"),
     "check_every": Field(integer(at_least(1)), 50, "steps", "steps between balance checks"),
     "memory_limit_gb": Field(number(greater(0)), None, "GB",
                              "memory the run may use on this machine, all its ranks "

@@ -46,10 +46,11 @@ class CoarseGrid:
         cells = self.cells_of(x)
         return np.all((cells >= 0) & (cells < self.n_cells), axis=1)
 
-    def cell_histograms(self, x):
-        """Particle counts per coarse cell layer along each axis (three arrays)."""
+    def cell_histograms(self, x, weights=None):
+        """Particle counts per coarse cell layer along each axis (three arrays), or with
+        ``weights`` (n,) the sums of the points' weights (what each costs to step)."""
         cells = self.cells_of(x)
-        return [np.bincount(np.clip(cells[:, a], 0, self.n_cells[a] - 1),
+        return [np.bincount(np.clip(cells[:, a], 0, self.n_cells[a] - 1), weights,
                             minlength=int(self.n_cells[a])) for a in range(3)]
 
 

@@ -98,9 +98,10 @@ class Decomposition:
             migrate_store(self.world, owners, kind.particles)
 
     def rebalance(self, threshold, kinds, counted=()):
-        """Move slab planes when max/mean point count - 1 exceeds ``threshold`` (the
-        ``counted`` kinds, FEM elements, count too but move themselves). Returns the
-        imbalance before any move, and whether the slabs moved."""
+        """Move slab planes when the weighted imbalance (:meth:`imbalance`) exceeds
+        ``threshold`` (the ``counted`` kinds, FEM elements, count too but move
+        themselves). Returns the imbalance before any move, and whether the slabs
+        moved."""
         counts = self.slab_axis_histogram(list(kinds) + list(counted))
         imbalance = self.slabs.imbalance(counts)
         if self.world.size == 1 or imbalance <= threshold:
@@ -113,11 +114,20 @@ class Decomposition:
         self.update_cell_ranges(kinds)
         return imbalance, True
 
+    def imbalance(self, kinds):
+        """max/mean - 1 over the ranks of the work their slabs hold, each point counted
+        with its kind's weight (solver.work_weights: particles 1, elements their cost in
+        particle-steps) (collective)."""
+        return self.slabs.imbalance(self.slab_axis_histogram(kinds))
+
     def slab_axis_histogram(self, kinds):
+        """The points' weights summed per coarse cell layer along the slab axis, over
+        all ranks (a kind's ``slab_weights()`` None: each point counts 1)."""
         a = self.slabs.axis
         n = int(self.grid.n_cells[a])
-        local = sum(np.bincount(k.slab_cells(self.grid, a), minlength=n).astype(np.int64)
-                    for k in kinds)
+        local = np.zeros(n)
+        for k in kinds:
+            local += np.bincount(k.slab_cells(self.grid, a), k.slab_weights(), minlength=n)
         return self.world.sum(local)
 
 

@@ -45,6 +45,7 @@ from ..materials.state import MaterialState, with_later_columns
 from .bodies import initial_field
 from .errors import SetupError
 from .fem_partition import element_owners, partition_mesh, shared_with
+from .work_weights import body_weights
 
 FAULTS = {NON_POSITIVE_VOLUME: "non-positive volume (inverted or collapsed element)",
           FAILED_UPDATE: "constitutive update failed (NaN, non-convergence or "
@@ -90,6 +91,7 @@ class FemBodies:
         self.gravity = np.asarray(config.gravity, np.float64)
         self.load_vectors = np.zeros((1, 3))
         self.materials = BodyMaterials(table.codes, table.params, table.rigid)
+        self.weight_of_body = body_weights(config, table.rigid)
         self.speed, self.fault = 0.0, None
         self.converted_hourglass = 0.0     # of this rank's elements that became particles
         self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
@@ -215,6 +217,11 @@ class FemBodies:
             return np.zeros(0, np.int64)
         cells = grid.cells_of(self.centroids())[:, axis]
         return np.clip(cells, 0, int(grid.n_cells[axis]) - 1)
+
+    def slab_weights(self):
+        """What each element weighs in the slabs' balance: its body's cost of an
+        element-step in particle-steps (solver.work_weights)."""
+        return self.weight_of_body[self.body]
 
     def migrate(self, grid, slabs):
         """Send every element whose centroid has left this rank's slab to its new owner,

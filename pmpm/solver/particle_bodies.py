@@ -161,6 +161,10 @@ class ParticleBodies:
     def slab_cells(self, grid, axis):
         return grid.cells_of(self.particles.x)[:, axis]
 
+    def slab_weights(self):
+        """None: a particle counts 1 in the slabs' balance (solver.work_weights)."""
+        return None
+
     def sort_by_cell(self, grid):
         """Order particles by coarse cell so scatter and gather walk memory in order."""
         p = self.particles

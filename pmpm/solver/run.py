@@ -383,7 +383,8 @@ class Runner:
             "particle_steps_per_s_per_rank": self.rate() / self.world.size,
             "particles_lost": int(sim.lost),
             "n_failed": sum(body["n_failed"] for body in bodies.values()),
-            "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist()},
+            "slabs": {"axis": "xyz"[sim.slabs.axis], "bounds": sim.slabs.bounds.tolist(),
+                      "imbalance": sim.imbalance()},
             "windows": self.window_summary(),
             "energy": sim.energies(),
             "energy_balance": self.watch.summary(),
@@ -412,14 +413,18 @@ class Runner:
 
     def element_summary(self):
         """With FEM bodies: their element count, element-steps per second of stepping
-        (the whole step's wall time, particles included, every step) and each
-        rank's elements at the end."""
+        (the whole step's wall time, particles included, every step), each rank's
+        elements at the end, and what an element of each FEM body weighs in the slabs'
+        balance, in particle-steps (solver.work_weights)."""
         if not self.sim.elements:
             return {}
         rate = self.rate(column=2)
         per_rank = self.world.allgather(self.sim.elements.n_elements)
+        weights = self.sim.elements.weight_of_body
         return {"n_elements": self.n_elements, "element_steps_per_s": rate,
-                "elements_per_rank": [int(n) for n in per_rank]}
+                "elements_per_rank": [int(n) for n in per_rank],
+                "element_weights": {self.sim.bodies.names[b]: float(weights[b])
+                                    for b in self.sim.elements.body_indices}}
 
     def window_summary(self):
         """Each refined window's final box (mm), ratio and particle count."""

@@ -27,6 +27,7 @@ from .step import Stepper
 from .rigid_motion import RigidMotion
 from .rigid_particles import free_rigid_particles
 from .surface_contact import SurfaceContact
+from .work_weights import body_weights
 
 
 class Simulation:
@@ -146,8 +147,7 @@ class Simulation:
         filled = fill_positions(config, fill_body, case_dir)
         x = np.concatenate([positions for positions, _ in filled])
         meshes = build_meshes(config, case_dir)
-        centroids = [m.points[m.hexes].mean(axis=1) for m in meshes.values()]
-        counts = grid.cell_histograms(np.concatenate([x] + centroids))  # elements count too
+        counts = initial_histograms(config, grid, x, meshes)
         slabs = choose_slabs(counts, world.size, config.decomposition.axis,
                              slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
@@ -178,7 +178,7 @@ class Simulation:
         particles = Particles(columns)
         slabs = Slabs(scalars["slab_axis"], scalars["slab_bounds"])
         if len(slabs.bounds) != world.size + 1:
-            counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
+            counts = checkpoint_histograms(world, config, grid, bodies, particles, groups)
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]],
                                  slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         refined = scalars.get("refine")
@@ -246,6 +246,12 @@ class Simulation:
                 if contact:
                     contact.refresh_faces()   # the faces of the elements now held here
         return result
+
+    def imbalance(self):
+        """The weighted imbalance of the slabs now: max/mean - 1 over the ranks of the
+        particles plus the elements' weights each slab holds (collective)."""
+        return self.decomposition.imbalance(self.kinds + ([self.elements] if self.elements
+                                                          else []))
 
     def restart_state(self):
         """What a checkpoint keeps beyond the points' columns (collective: the deepest
@@ -340,6 +346,32 @@ class Simulation:
             vec[i] = np.asarray(load.value, dtype=np.float64) * time_factor(
                 load.time_function, time)
         return vec
+
+
+def initial_histograms(config, grid, x, meshes):
+    """The initial cut's histograms along each axis: each particle counts 1, each element
+    (by its centroid) its weight (solver.work_weights)."""
+    if not meshes:
+        return grid.cell_histograms(x)
+    weights = body_weights(config, BodyTable(config).rigid)
+    centroids = [m.points[m.hexes].mean(axis=1) for m in meshes.values()]
+    each = [np.ones(len(x))] + [np.full(len(m.hexes), weights[b]) for b, m in meshes.items()]
+    return grid.cell_histograms(np.concatenate([x] + centroids), np.concatenate(each))
+
+
+def checkpoint_histograms(world, config, grid, bodies, particles, groups):
+    """The histograms a restart on another number of ranks cuts its slabs from: this
+    rank's particles summed over the ranks, plus the checkpoint's elements (every rank
+    reads them all: not summed) by their centroids and weights (solver.work_weights)."""
+    counts = [world.sum(h) for h in grid.cell_histograms(particles.x)]
+    if not groups or not groups.get("elements"):
+        return counts
+    elements, nodes = groups["elements"], groups["nodes"]
+    order = np.argsort(nodes["node_id"], kind="stable")
+    corners = np.searchsorted(nodes["node_id"][order], elements["hexes"])
+    centroids = nodes["x"][order][corners].mean(axis=1)
+    weights = body_weights(config, bodies.rigid)[elements["body"]]
+    return [c + e for c, e in zip(counts, grid.cell_histograms(centroids, weights))]
 
 
 def supported_fem_bodies(world, elements, n_bodies):
