@@ -19,7 +19,6 @@ largest n^3.
 """
 import numpy as np
 
-from .store import COLUMNS
 
 DIVIDED = ("mass", "vol0", "load_scale")
 
@@ -39,7 +38,7 @@ def children_of(particles, parents, n, id_base, id_stride):
     F = particles.F[parents].reshape(-1, 3, 3)
     moved = np.einsum("pij,kj->pki", F, offsets) * edge[:, None, None]
     children = {}
-    for name in COLUMNS:
+    for name in particles.COLUMNS:
         column = np.repeat(getattr(particles, name)[parents], k, axis=0)
         if name in DIVIDED:
             column /= k
@@ -62,7 +61,7 @@ def split(particles, parents, factors, id_base, id_stride):
     factors = np.asarray(factors, np.int64)
     if len(parents) == 0:
         return 0
-    rest = {name: [] for name in COLUMNS}
+    rest = {name: [] for name in particles.COLUMNS}
     for n in np.unique(factors):
         group = parents[factors == n]
         children = children_of(particles, group, int(n), id_base, id_stride)

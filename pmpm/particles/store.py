@@ -23,6 +23,9 @@ COLUMNS = column_table(
     groups=[MATERIAL_GROUP])
 
 IDENTITY9 = np.eye(3).reshape(9)
+#: the columns of a run without APIC: every column but the affine matrices, 72 bytes a
+#: particle that only ``time.transfer: apic`` reads
+PLAIN_COLUMNS = {name: spec for name, spec in COLUMNS.items() if name != "affine"}
 
 
 class Particles(ColumnStore):
@@ -36,7 +39,8 @@ class Particles(ColumnStore):
     def __init__(self, columns):
         if "refine" not in columns and "mass" in columns:    # checkpoints before windows
             columns = dict(columns, refine=np.ones(len(columns["mass"]), np.int32))
-        if "affine" not in columns and "mass" in columns:    # checkpoints before APIC
+        if "affine" in self.COLUMNS and "affine" not in columns and "mass" in columns:
+            # checkpoints before APIC, or of a run without it
             columns = dict(columns, affine=np.zeros((len(columns["mass"]), 9)))
         if "x0" not in columns and "x" in columns:   # checkpoints before displacements
             columns = dict(columns, x0=np.array(columns["x"], np.float64))
@@ -47,6 +51,18 @@ class Particles(ColumnStore):
     @classmethod
     def bytes_per_particle(cls):
         return cls.bytes_per_row()
+
+
+class PlainParticles(Particles):
+    """The particles of a run without APIC: no ``affine`` column."""
+
+    COLUMNS = PLAIN_COLUMNS
+
+
+def particle_store(apic):
+    """The store class of a run: :class:`Particles` with APIC, else
+    :class:`PlainParticles`."""
+    return Particles if apic else PlainParticles
 
 
 empty_column = Particles.empty_column

@@ -3,7 +3,7 @@ import numpy as np
 
 from ..case.expressions import ExpressionError, evaluate_field
 from ..materials import catalog, layout
-from ..particles import COLUMNS, Particles
+from ..particles import particle_store
 from ..particles.store import IDENTITY9, empty_column
 from .errors import SetupError
 
@@ -62,23 +62,24 @@ def fill_positions(config, fill_body, case_dir):
 def build_particles(config, table, filled, keep):
     """The particles of every body selected by ``keep`` (bool mask over the concatenated
     fill); global ids are the fill order, so they agree on every rank count."""
+    store = particle_store(config.time.transfer == "apic")
     parts, offset = [], 0
     for index, (positions, volumes) in enumerate(filled):
         mine = keep[offset:offset + len(volumes)]
         cols = _body_columns(index, config.bodies[index], table, positions[mine],
-                             volumes[mine], config.grid.cell)
+                             volumes[mine], config.grid.cell, store.COLUMNS)
         cols["id"][:] = offset + np.flatnonzero(mine)
         parts.append(cols)
         offset += len(volumes)
     columns = {}
-    for name in COLUMNS:         # column by column, freeing each body's part as we go
+    for name in store.COLUMNS:   # column by column, freeing each body's part as we go
         columns[name] = np.concatenate([part.pop(name) for part in parts])
-    return Particles(columns)
+    return store(columns)
 
 
-def _body_columns(index, body, table, positions, volumes, cell):
+def _body_columns(index, body, table, positions, volumes, cell, names):
     n = len(volumes)
-    cols = {name: empty_column(name, n) for name in COLUMNS}
+    cols = {name: empty_column(name, n) for name in names}
     prm = table.params[index]
     cols["x"][:] = positions
     cols["x0"][:] = positions

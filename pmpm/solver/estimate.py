@@ -9,7 +9,7 @@ import numpy as np
 
 from ..case.contact import describe_contact
 from ..io.history import BODY_FIELDS
-from ..particles import COLUMNS
+from ..particles import COLUMNS, particle_store
 from .bodies import BodyTable, initial_field
 from .errors import SetupError
 
@@ -126,7 +126,8 @@ def estimate(config, n_particles, fastest, t0=0.0, first_frame=True, elements=(0
     kept = CHECKPOINTS_AT_ONCE if output.checkpoints else 0
     out = (frames * (n_particles * (bytes_per_particle(FRAME_COLUMNS) + DERIVED_BYTES)
                      + n_elements * ELEMENT_FRAME_BYTES + n_nodes * NODE_FRAME_BYTES)
-           + kept * (n_particles * bytes_per_particle(COLUMNS)
+           + kept * (n_particles * bytes_per_particle(
+               particle_store(config.time.transfer == "apic").COLUMNS)
                      + n_elements * ELEMENT_CHECKPOINT_BYTES + n_nodes * NODE_CHECKPOINT_BYTES)
            + rows * row_bytes)
     return RunSize(int(n_particles), dt, float(steps), frames, float(out), stable)

@@ -5,7 +5,7 @@ import numpy as np
 from ..comm.slabs import Slabs, choose_slabs
 from ..grid import CoarseGrid, Level, Window
 from ..kernels.shape import HALO, SHAPE_CODES
-from ..particles import Particles
+from ..particles import particle_store
 from .bodies import (BodyTable, assign_loads, build_particles, converted_spacing,
                      fill_positions)
 from .contact import SURFACE_COUPLING, ContactRules, GridContact, start_shares
@@ -175,7 +175,7 @@ class Simulation:
         when the case has FEM bodies)."""
         grid = CoarseGrid.from_config(config.grid)
         bodies = BodyTable(config)
-        particles = Particles(columns)
+        particles = particle_store(config.time.transfer == "apic")(columns)
         slabs = Slabs(scalars["slab_axis"], scalars["slab_bounds"])
         if len(slabs.bounds) != world.size + 1:
             counts = checkpoint_histograms(world, config, grid, bodies, particles, groups)
