@@ -8,15 +8,16 @@ nodes where a hat touches 8). The costs below were measured once, on one rank, w
 ``scripts/element_weights.py``: the same copper block (Johnson-Cook + Mie-Grueneisen +
 bulk viscosity, 190 m/s onto a slip wall) as 125,000 particles with each shape function
 and as 125,000 hexahedra with each formulation, the variants interleaved, medians of 3
-repeats (the project's 2-core x86_64 machine, code of commit a8b5ede;
-docs/performance-notes.md "Elements in the rebalance (issue 24)"). The weights they give:
+repeats (the project's 2-core x86_64 machine, quiet, 2026-12-04 00:53-01:00 UTC, code of
+commit 871fff6, after the 27-node kernels' speed-up of issue 25; docs/performance-notes.md
+"Elements in the rebalance (issue 24)"). The weights they give:
 
 =================  ======  =====  =======
 element            linear  gimp   bspline
 =================  ======  =====  =======
-reduced, viscous   4       1.5    1.5
-reduced, stiffness 4.5     1.75   1.75
-assumed_strain     4.25    1.5    1.5
+reduced, viscous   3.75    2      2.5
+reduced, stiffness 3.75    2      2.25
+assumed_strain     4.25    2.25   2.75
 rigid              0.5     0.25   0.25
 =================  ======  =====  =======
 
@@ -32,14 +33,13 @@ summation, over any number of ranks.
 """
 import numpy as np
 
-#: seconds per particle-step by shape function (scripts/element_weights.py, medians;
-#: measured 2026-12-03 23:45-00:00 UTC with other jobs on the machine, load 5-6: single
-#: samples spread up to +-30 %, the medians less)
-PARTICLE_STEP_S = {"linear": 0.418e-6, "gimp": 1.166e-6, "bspline": 1.164e-6}
+#: seconds per particle-step by shape function (scripts/element_weights.py, medians of 3;
+#: measured on a quiet machine, load below 1: samples within 2 % of their median)
+PARTICLE_STEP_S = {"linear": 0.267e-6, "gimp": 0.502e-6, "bspline": 0.428e-6}
 #: seconds per element-step by element formulation (the same runs): the reduced element
 #: with viscous or stiffness hourglass control, the assumed-strain element, a rigid body
-ELEMENT_STEP_S = {"reduced_viscous": 1.632e-6, "reduced_stiffness": 1.918e-6,
-                  "assumed_strain": 1.821e-6, "rigid": 0.198e-6}
+ELEMENT_STEP_S = {"reduced_viscous": 1.018e-6, "reduced_stiffness": 1.016e-6,
+                  "assumed_strain": 1.165e-6, "rigid": 0.123e-6}
 #: the resolution of the weights (see the module's docstring)
 QUANTUM = 0.25
 
