@@ -146,6 +146,8 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     if contact is not None:
         slot_of, cnew = contact.slot_of, contact.cnew
+    else:                       # no contact node: every node reads the shared field
+        cnew = np.empty((0, 1, 6))
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e = np.zeros((MAX_NODES, 3))
     bad = -1
@@ -167,45 +169,19 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
                     row = base + a * strides[0] + j * strides[1]
                     for t in range(3):
                         n, wk = row + t * strides[2], wab * axes[6, t]
-                        s = -1
-                        if contact is not None:
-                            s = slot_of[n]
-                        if s < 0:
-                            dx0 += wk * gnew[n, 0]
-                            dx1 += wk * gnew[n, 1]
-                            dx2 += wk * gnew[n, 2]
-                            dv0 += wk * gnew[n, 3]
-                            dv1 += wk * gnew[n, 4]
-                            dv2 += wk * gnew[n, 5]
-                        elif contact is not None:
-                            dx0 += wk * cnew[s, b, 0]
-                            dx1 += wk * cnew[s, b, 1]
-                            dx2 += wk * cnew[s, b, 2]
-                            dv0 += wk * cnew[s, b, 3]
-                            dv1 += wk * cnew[s, b, 4]
-                            dv2 += wk * cnew[s, b, 5]
+                        s = slot_of[n] if contact is not None else -1
+                        f0, f1, f2, f3, f4, f5 = _new_fields(gnew, cnew, n, s, b)
+                        dx0, dx1, dx2 = dx0 + wk * f0, dx1 + wk * f1, dx2 + wk * f2
+                        dv0, dv1, dv2 = dv0 + wk * f3, dv1 + wk * f4, dv2 + wk * f5
         else:
             reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
                             nodes, w)
             for k in range(reach):
                 n, wk = nodes[k], w[k]
-                s = -1
-                if contact is not None:
-                    s = slot_of[n]
-                if s < 0:
-                    dx0 += wk * gnew[n, 0]
-                    dx1 += wk * gnew[n, 1]
-                    dx2 += wk * gnew[n, 2]
-                    dv0 += wk * gnew[n, 3]
-                    dv1 += wk * gnew[n, 4]
-                    dv2 += wk * gnew[n, 5]
-                elif contact is not None:
-                    dx0 += wk * cnew[s, b, 0]
-                    dx1 += wk * cnew[s, b, 1]
-                    dx2 += wk * cnew[s, b, 2]
-                    dv0 += wk * cnew[s, b, 3]
-                    dv1 += wk * cnew[s, b, 4]
-                    dv2 += wk * cnew[s, b, 5]
+                s = slot_of[n] if contact is not None else -1
+                f0, f1, f2, f3, f4, f5 = _new_fields(gnew, cnew, n, s, b)
+                dx0, dx1, dx2 = dx0 + wk * f0, dx1 + wk * f1, dx2 + wk * f2
+                dv0, dv1, dv2 = dv0 + wk * f3, dv1 + wk * f4, dv2 + wk * f5
         if affine is not None:
             _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
         x[p, 0] += dt * dx0
@@ -223,6 +199,16 @@ def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None
         if bad < 0 and not (np.isfinite(x[p, 0]) and np.isfinite(x[p, 1]) and np.isfinite(x[p, 2])):
             bad = p
     return bad
+
+
+@njit(cache=True, inline="always")
+def _new_fields(gnew, cnew, n, s, b):
+    """The end-of-step velocity and acceleration node n gives a particle of body b: its
+    body's own field at a contact node (slot s >= 0), else the shared one."""
+    if s < 0:
+        return gnew[n, 0], gnew[n, 1], gnew[n, 2], gnew[n, 3], gnew[n, 4], gnew[n, 5]
+    return cnew[s, b, 0], cnew[s, b, 1], cnew[s, b, 2], cnew[s, b, 3], cnew[s, b, 4], \
+        cnew[s, b, 5]
 
 
 @njit(cache=True, inline="always")
