@@ -44,7 +44,9 @@ already stored are not returned to a yield surface. On a distorted element the f
 stiffness is then that of the rectangular element of the same centre Jacobian.
 
 Each helper is inlined into its caller (``inline="always"``) and fills arrays it is
-given, so the element loop allocates nothing.
+given, so the element loop allocates nothing; divisions by a variable go through
+``fdiv`` (the same IEEE quotient), as in the material kernels: a ``/`` with Numba's
+zero-divisor raise path keeps array reference counting live in the element loop.
 """
 import numpy as np
 from numba import njit
@@ -123,22 +125,22 @@ def stiffness_times(qd, half, volume, moduli, dq):
     p, mu, d1, d2 = moduli
     w = volume / 3.0
     l0, l1, l2 = half[0], half[1], half[2]
-    s01 = qd[0, 0] / l1 + qd[1, 1] / l0              # twist: the three shear strains
-    s02 = qd[0, 0] / l2 + qd[2, 2] / l0
-    s12 = qd[1, 1] / l2 + qd[2, 2] / l1
-    dq[0, 0] = mu * w * (s01 / l1 + s02 / l2)
-    dq[1, 1] = mu * w * (s01 / l0 + s12 / l2)
-    dq[2, 2] = mu * w * (s02 / l0 + s12 / l1)
+    s01 = fdiv(qd[0, 0], l1) + fdiv(qd[1, 1], l0)    # twist: the three shear strains
+    s02 = fdiv(qd[0, 0], l2) + fdiv(qd[2, 2], l0)
+    s12 = fdiv(qd[1, 1], l2) + fdiv(qd[2, 2], l1)
+    dq[0, 0] = mu * w * (fdiv(s01, l1) + fdiv(s02, l2))
+    dq[1, 1] = mu * w * (fdiv(s01, l0) + fdiv(s12, l2))
+    dq[2, 2] = mu * w * (fdiv(s02, l0) + fdiv(s12, l1))
     for k in range(3):                               # bending across the thickness k
         i, j = (k + 1) % 3, (k + 2) % 3
         qi, qj = qd[j, i], qd[i, j]                  # u_i = xi_i xi_k, u_j = xi_j xi_k
         li, lj = half[i], half[j]
-        dq[j, i] = w * (d1 * qi / (li * li) + d2 * qj / (li * lj))
-        dq[i, j] = w * (d2 * qi / (li * lj) + d1 * qj / (lj * lj))
+        dq[j, i] = w * (fdiv(d1 * qi, li * li) + fdiv(d2 * qj, li * lj))
+        dq[i, j] = w * (fdiv(d2 * qi, li * lj) + fdiv(d1 * qj, lj * lj))
     for i in range(3):                               # xi eta zeta
         j, k = (i + 1) % 3, (i + 2) % 3
-        dq[3, i] = w / 3.0 * (p / half[i] ** 2 + mu / half[j] ** 2
-                              + mu / half[k] ** 2) * qd[3, i]
+        dq[3, i] = w / 3.0 * (fdiv(p, half[i] ** 2) + fdiv(mu, half[j] ** 2)
+                              + fdiv(mu, half[k] ** 2)) * qd[3, i]
 
 
 @njit(cache=True, inline="always")
@@ -149,21 +151,21 @@ def largest_stiffness(half, volume, moduli):
     w = volume / 3.0
     l0, l1, l2 = half[0], half[1], half[2]
     # mu W B^T B, B's rows (1/l1, 1/l0, 0), (1/l2, 0, 1/l0), (0, 1/l2, 1/l1)
-    a00 = 1.0 / (l1 * l1) + 1.0 / (l2 * l2)
-    a11 = 1.0 / (l0 * l0) + 1.0 / (l2 * l2)
-    a22 = 1.0 / (l0 * l0) + 1.0 / (l1 * l1)
-    a01, a02, a12 = 1.0 / (l0 * l1), 1.0 / (l0 * l2), 1.0 / (l1 * l2)
+    a00 = fdiv(1.0, l1 * l1) + fdiv(1.0, l2 * l2)
+    a11 = fdiv(1.0, l0 * l0) + fdiv(1.0, l2 * l2)
+    a22 = fdiv(1.0, l0 * l0) + fdiv(1.0, l1 * l1)
+    a01, a02, a12 = fdiv(1.0, l0 * l1), fdiv(1.0, l0 * l2), fdiv(1.0, l1 * l2)
     largest = mu * w * max(a00 + a01 + a02, max(a11 + a01 + a12, a22 + a02 + a12))
     for k in range(3):
         i, j = (k + 1) % 3, (k + 2) % 3
         li, lj = half[i], half[j]
-        kii, kjj, kij = d1 / (li * li), d1 / (lj * lj), abs(d2) / (li * lj)
+        kii, kjj, kij = fdiv(d1, li * li), fdiv(d1, lj * lj), fdiv(abs(d2), li * lj)
         mean, diff = 0.5 * (kii + kjj), 0.5 * (kii - kjj)
         largest = max(largest, w * (mean + np.sqrt(diff * diff + kij * kij)))
     for i in range(3):
         j, k = (i + 1) % 3, (i + 2) % 3
-        largest = max(largest, w / 3.0 * (p / half[i] ** 2 + mu / half[j] ** 2
-                                          + mu / half[k] ** 2))
+        largest = max(largest, w / 3.0 * (fdiv(p, half[i] ** 2) + fdiv(mu, half[j] ** 2)
+                                          + fdiv(mu, half[k] ** 2)))
     return largest
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..fem import elements as fe
 from ..fem.hexahedron import element_volumes
+from ..fem import nodes as fn
 from ..fem.stability import mesh_rate
 from ..materials import layout
 from . import fem_grid, forces, node_contact, surface_contact
@@ -43,7 +44,20 @@ def warm_up_elements(mat, bodies):
     fe.external_forces(mass, np.zeros(3), np.full(8, -1, np.int32), np.zeros(1),
                        np.zeros((1, 3)), force)
     fe.advance_velocities(v, force, mass, np.zeros((8, 3), np.bool_), 1e-3)
+    warm_up_nodes(x, v, force, mass)
     fe.advance_positions(x, v, 1e-3)
+
+
+def warm_up_nodes(x, v, force, mass):
+    """The FE nodes' kernels (pmpm.fem.nodes) with the types FemBodies passes: one slip
+    face z-, a force log's sums for one body."""
+    movable, fixed = np.ones(len(x), np.bool_), np.zeros((len(x), 3), np.bool_)
+    faces = (np.array([2], np.int64), np.array([-1.0]), np.zeros(1), np.zeros(1, np.bool_))
+    fn.advance_and_hold(x, v, force, mass, fixed, movable, *faces, 1e-3, 1e-9, True,
+                        movable.copy(), np.zeros(len(x), np.int32), np.zeros((1, 3)),
+                        np.zeros((6, 4)))
+    fn.hold_at_faces(x, v, movable, *faces, 0.0, 1e-9)
+    fn.first_outside(x, np.zeros(3), np.ones(3), 1e-9)
 
 
 def _segments():

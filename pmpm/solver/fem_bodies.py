@@ -35,9 +35,9 @@ from ..comm.shared_nodes import sum_shared_rows
 from ..comm.sparse import exchange_arrays
 from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
                             NON_POSITIVE_VOLUME, ElementMesh, Hourglass, advance_positions,
-                            advance_velocities, element_forces, external_forces,
-                            lumped_masses)
+                            element_forces, external_forces, lumped_masses)
 from ..fem.hexahedron import FACES, element_volumes
+from ..fem.nodes import advance_and_hold, first_outside, hold_at_faces
 from ..fem.stability import mesh_rate
 from ..kernels.records import BodyMaterials
 from ..materials import layout
@@ -97,6 +97,7 @@ class FemBodies:
         self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
         self.force_log = None             # solver.forces.ForceLog, set by the simulation
         self.faces = constrained_faces(config.grid)
+        self.face_arrays = face_arrays(self.faces)
         self.box = (np.asarray(config.grid.min, np.float64),
                     np.asarray(config.grid.max, np.float64))
 
@@ -344,28 +345,22 @@ class FemBodies:
         return self.materials.rigid[self.node_body]
 
     def integrate(self, dt):
-        before = self.v.copy() if self.force_log is not None else None
-        advance_velocities(self.v, self.force, self.mass, self.fixed, dt)
-        self.hold_at_faces(dt)
-        if before is not None:
-            self.log_reactions(before, dt)
+        """v <- v + dt f / m with the constraints and the grid faces' conditions, and
+        the reactions of both to the force log, in one pass over the nodes
+        (pmpm.fem.nodes.advance_and_hold); then the free rigid bodies."""
+        log, movable = self.force_log, ~self.rigid_nodes()
+        support, face = (log.support, log.face) if log is not None else (NO_SUMS, NO_SUMS)
+        advance_and_hold(self.x, self.v, self.force, self.mass, self.fixed, movable,
+                         *self.face_arrays, dt, 1e-9 * self.h, log is not None,
+                         self.owned & movable, self.node_body, support, face)
         if self.rigid_motion is not None:          # free rigid bodies: gravity, one V each
             self.rigid_motion.integrate(self, dt)
 
-    def log_reactions(self, before, dt):
-        """The impulses the constraints and the grid faces gave the nodes this rank
-        counts in this step, m (v - v_before) - f dt, to the force log."""
-        counted = self.owned & ~self.rigid_nodes()
-        impulses = (self.mass[counted, None] * (self.v[counted] - before[counted])
-                    - dt * self.force[counted])
-        on_support = self.fixed[counted].any(axis=1)
-        self.force_log.node_reactions(self.node_body[counted], on_support, impulses,
-                                      face_of_impulses(self.faces, impulses,
-                                                       self.x[counted], 1e-9 * self.h))
-
     def hold_at_faces(self, dt):
-        """The grid faces' conditions on every node but a rigid body's (module function)."""
-        hold_at_faces(self.x, self.v, self.faces, ~self.rigid_nodes(), dt, 1e-9 * self.h)
+        """The grid faces' conditions on every node but a rigid body's (dt None: no
+        landing on a face, pmpm.fem.nodes.hold_at_faces)."""
+        hold_at_faces(self.x, self.v, ~self.rigid_nodes(), *self.face_arrays,
+                      0.0 if dt is None else dt, 1e-9 * self.h)
 
     def move(self, dt):
         bad = advance_positions(self.x, self.v, dt)
@@ -381,12 +376,11 @@ class FemBodies:
         element without its node would break the mesh."""
         lo, hi = self.box
         tol = 1e-9 * self.h
-        out = (self.x < lo - tol) | (self.x > hi + tol)
-        gone = np.flatnonzero(out.any(axis=1))
-        if not len(gone):
+        n = first_outside(self.x, lo, hi, tol)
+        if n < 0:
             return None
-        n = gone[0]
-        d = int(np.flatnonzero(out[n])[0])
+        out = (self.x[n] < lo - tol) | (self.x[n] > hi + tol)
+        d = int(np.flatnonzero(out)[0])
         face = f"{'xyz'[d]}{'-' if self.x[n, d] < lo[d] else '+'}"
         name = self.names[self.node_body[n]]
         return (f"node {int(self.node_id[n])} of FEM body '{name}' "
@@ -522,39 +516,17 @@ def constrained_faces(grid):
     return faces
 
 
-def face_of_impulses(faces, impulses, x, tol):
-    """Per node and component, the constrained box face (2 axis + upper, -1: none) that
-    pushed it: the face of that axis the impulse points away from, else (the tangential
-    hold of a fixed face) a fixed face the node lies on."""
-    out = np.full(impulses.shape, -1, np.int64)
-    for d, side, _, _ in faces:
-        pushed = side * impulses[:, d] < 0.0        # into the box from this face
-        out[pushed, d] = 2 * d + (side > 0)
-    for d, side, plane, fixed in faces:
-        if not fixed:
-            continue
-        at = side * (plane - x[:, d]) <= tol
-        for e in range(3):
-            if e != d:
-                out[at & (out[:, e] < 0), e] = 2 * d + (side > 0)
-    return out
+def face_arrays(faces):
+    """The constrained faces as the parallel arrays of pmpm.fem.nodes: (axis, side,
+    plane, fixed)."""
+    return (np.array([f[0] for f in faces], np.int64),
+            np.array([float(f[1]) for f in faces], np.float64),
+            np.array([f[2] for f in faces], np.float64),
+            np.array([f[3] for f in faces], np.bool_))
 
 
-def hold_at_faces(x, v, faces, movable, dt, tol):
-    """The grid faces' conditions on the ``movable`` nodes, as on grid nodes: on a face
-    (within ``tol`` of its plane) a fixed face zeroes the velocity, a slip or symmetry
-    face its normal component; beyond a face no component may point further out; and
-    (``dt`` given) a node that would cross a face in this step lands on it."""
-    for d, side, plane, fixed in faces:
-        gap = side * (plane - x[:, d])             # > 0 inside the box
-        at = movable & (gap <= tol)
-        if fixed:
-            v[at] = 0.0
-        else:
-            v[at & ((gap >= -tol) | (side * v[:, d] > 0)), d] = 0.0
-        if dt is not None:
-            crossing = movable & ~at & (side * v[:, d] * dt > gap)
-            v[crossing, d] = side * gap[crossing] / dt
+#: the force log's sums when there is none (advance_and_hold then adds nothing)
+NO_SUMS = np.zeros((0, 3))
 
 
 def free_face_areas(x, hexes, selected):
