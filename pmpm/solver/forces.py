@@ -151,16 +151,6 @@ class ForceLog(Coupling):
                              impulses, np.ascontiguousarray(normals, np.float64),
                              np.ascontiguousarray(work), self.pair)
 
-    def node_reactions(self, body, on_support, impulses, face_of):
-        """FE nodes' impulses from their constraints (``on_support``, to their body) and
-        from the box faces (``face_of`` per component, -1: none)."""
-        np.add.at(self.support, body[on_support], impulses[on_support])
-        rest = ~on_support
-        for d in range(3):
-            faces = face_of[rest, d]
-            hit = faces >= 0
-            np.add.at(self.face[:, d], faces[hit], impulses[rest, d][hit])
-
     # -- a history row ---------------------------------------------------------------
     def take_row(self, time):
         """The mean forces since the previous row (collective): a dict of column name ->
