@@ -38,7 +38,7 @@ from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
                             element_forces, external_forces, lumped_masses)
 from ..fem.hexahedron import FACES, element_volumes
 from ..fem.nodes import advance_and_hold, first_outside, hold_at_faces
-from ..fem.stability import mesh_rate
+from ..fem.stability import element_rates, mesh_rate
 from ..kernels.records import BodyMaterials
 from ..materials import layout
 from ..materials.state import MaterialState, with_later_columns
@@ -285,6 +285,13 @@ class FemBodies:
         out = np.empty(len(self.hexes))
         element_volumes(self.x, self.hexes, out)
         return out
+
+    def shape_rates(self, initial=False):
+        """Per element its stable rate at rest with its material's initial density and
+        wave speed, at the current positions (``initial``: at the nodes' initial ones)."""
+        x = self.x0 if initial else self.x
+        return rates_at_rest(self.table, x, self.hexes, self.body, self.hourglass.kind,
+                           self.hourglass.coefficient)
 
     def mass_shares(self, chosen):
         """(element ids, node ids (m, 8), m_e / 8) of the elements ``chosen`` (bool)."""
@@ -617,10 +624,27 @@ def hourglass_form(fem):
 def start_rate(table, x, hexes, body, hg_kind, hg_k):
     """The largest stable rate (1 / step at cfl 1) of the elements ``hexes`` at rest with
     their materials' initial densities and wave speeds (rigid bodies: none)."""
-    nb = len(table.names)
-    speeds = np.array([0.0 if table.rigid[b] else table.initial_wave_speed(b)
-                       for b in range(nb)])
-    rho0 = np.ascontiguousarray(table.params[:, layout.RHO0])
+    rho0, speeds = initial_waves(table)
     return mesh_rate(x, np.asarray(hexes, np.int64), np.asarray(body, np.int32), rho0,
                      speeds, table.params, np.asarray(hg_kind, np.int64),
                      np.asarray(hg_k, np.float64))
+
+
+def rates_at_rest(table, x, hexes, body, hg_kind, hg_k):
+    """Per element of ``hexes`` the stable rate at rest with its material's initial
+    density and wave speed: a measure of its shape (0 for rigid bodies, inf where
+    inverted; pmpm.fem.stability.element_rates)."""
+    rho0, speeds = initial_waves(table)
+    out = np.empty(len(hexes))
+    element_rates(x, np.asarray(hexes, np.int64), np.asarray(body, np.int32), rho0, speeds,
+                  table.params, np.asarray(hg_kind, np.int64), np.asarray(hg_k, np.float64),
+                  out)
+    return out
+
+
+def initial_waves(table):
+    """(rho0, c0) per body of the material table (c0 = 0 for rigid bodies)."""
+    nb = len(table.names)
+    speeds = np.array([0.0 if table.rigid[b] else table.initial_wave_speed(b)
+                       for b in range(nb)])
+    return np.ascontiguousarray(table.params[:, layout.RHO0]), speeds
