@@ -83,3 +83,34 @@ def test_a_step_ratio_outside_0_1_is_refused_naming_its_key(value):
     from pmpm.case.loader import load_config
     with pytest.raises(CaseError, match="step_ratio"):
         load_config(TAYLOR, [f"bodies[0].fem.convert.step_ratio={value}"])
+
+
+def test_a_restart_keeps_the_first_steps_and_the_answer(tmp_path):
+    """Stopped at 20 us (a frame of both runs, so their steps match) and continued
+    from the checkpoint, the run converting on the step ends on the uninterrupted run's
+    last history row, bit for bit; the body's first shortest step travels in the
+    checkpoint (Conversion.state), since its shortest element may have converted before
+    the restart."""
+    from clihelp import pmpm, read_history
+    case = [TAYLOR, "--set", "bodies[0].fem.convert.eps_p=100",
+            "--set", "bodies[0].fem.convert.step_ratio=0.8", "--set", "time.end=0.03",
+            "--set", "output.frames=3", "--quiet"]
+    whole, split = tmp_path / "whole", tmp_path / "split"
+    stop = ["--set", "time.end=0.02", "--set", "output.frames=2"]
+    for args in (case + ["--out", whole], case + ["--out", split] + stop,
+                 case + ["--out", split, "--restart"]):
+        done = pmpm(args, timeout=300)
+        assert done.returncode == 0, done.stderr
+    (header, one), (_, two) = read_history(whole), read_history(split)
+    assert one[-1, header.index("time")] == 0.03
+    assert (one[-1] == two[-1]).all()
+
+
+def test_the_first_shortest_steps_travel_in_the_checkpoint_state():
+    sim = set_up(TAYLOR, NO_STRAIN + ["bodies[0].fem.convert.step_ratio=0.8"])
+    state = sim.conversion.state()
+    first = sim.conversion.start_rates.copy()
+    assert first[0] > 0 and state["start_rates"] == list(first)
+    sim.conversion.start_rates[:] = 0.0
+    sim.conversion.restore(state)
+    assert (sim.conversion.start_rates == first).all()
