@@ -4,9 +4,10 @@
 At the end of a step, after the points and the FE nodes have moved, an element of a body
 with ``fem.convert`` becomes n^3 particles of the same body when its plastic strain
 reaches ``convert.eps_p``, when its volume falls to ``convert.volume_ratio`` of its
-initial volume, when its stable step at its material's initial density and wave speed
-(a measure of its shape) falls to ``convert.step_ratio`` of its body's shortest such step
-at the start, or whenever it would invert (volume at most 0):
+initial volume, when its stable step (as the last force pass took it: its shape, its
+current wave speed and viscosities) falls to ``convert.step_ratio`` of its body's
+shortest step at the start (at rest, the materials' initial wave speeds), or whenever it
+would invert (volume at most 0):
 
 * the particles sit at the centres of the element's n^3 sub-cells in its natural
   coordinates, xi = (2a + 1)/n - 1, mapped by the element's trilinear shape functions
@@ -159,7 +160,7 @@ class Conversion:
         if self.rules.step_ratio.any():
             limit = self.start_rates[b] / np.maximum(self.rules.step_ratio[b], 1e-300)
             chosen |= (self.rules.step_ratio[b] > 0) & (self.rules.divisions[b] > 0) \
-                & (fem.shape_rates() >= limit)
+                & (fem.step_rates() >= limit)
         return chosen
 
     def particles_of(self, converted):

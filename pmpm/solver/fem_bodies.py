@@ -146,6 +146,7 @@ class FemBodies:
         self.x = np.ascontiguousarray(whole.x[part.nodes])
         self.x0 = self.x.copy()                     # where each node was at the start
         self.hexes = np.ascontiguousarray(part.hexes, np.int64)
+        self.rates = np.zeros(len(self.hexes))      # each element's, from the force pass
         self.node_body = whole.node_body[part.nodes]
         self.body = whole.body[part.elements]
         self.vol0 = whole.vol0[part.elements]
@@ -273,6 +274,7 @@ class FemBodies:
         self.element_id, self.body = e["element_id"], e["body"]
         self.vol0, self.element_mass = e["vol0"], e["element_mass"]
         self.hexes = np.searchsorted(self.node_id, e["hexes"]).astype(np.int64)
+        self.rates = np.zeros(len(self.hexes))      # until the next force pass
         self.state = MaterialState(*(e[name] for name in MaterialState._fields))
         self.hourglass = self.hourglass._replace(resist=e["resist"], energy=e["hg_energy"])
         self.partners, self.owned = shared_with(self.world, self.node_id, self.x,
@@ -285,6 +287,11 @@ class FemBodies:
         out = np.empty(len(self.hexes))
         element_volumes(self.x, self.hexes, out)
         return out
+
+    def step_rates(self):
+        """Each element's stable rate (1 / its step at cfl 1) from the last force pass
+        (0 before the first one after the elements changed)."""
+        return self.rates
 
     def shape_rates(self, initial=False):
         """Per element its stable rate at rest with its material's initial density and
@@ -332,10 +339,12 @@ class FemBodies:
     # -- phases -------------------------------------------------------------------------
     def stress_and_forces(self, dt):
         """Element stresses and nodal forces, summed over the ranks sharing a node, then
-        gravity and loads; ``speed`` = h times the largest stable rate."""
+        gravity and loads; ``speed`` = h times the largest stable rate, ``rates`` each
+        element's."""
         self.force[:] = 0.0
+        self.rates = np.zeros(len(self.hexes))
         rate, bad, why = element_forces(self.mesh(), self.state, self.materials,
-                                        self.hourglass, dt, self.force)
+                                        self.hourglass, dt, self.force, self.rates)
         self.force = sum_shared_rows(self.world, self.force, self.partners)
         external_forces(self.mass, self.gravity, self.load, self.load_scale,
                         self.load_vectors, self.force)
