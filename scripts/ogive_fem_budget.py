@@ -80,6 +80,8 @@ def wrap_kernels():
                            seg_body, friction, dt, impulses, depth):
         node_impulses(pair_n, pair_s, geo, lent, v, node_body, seg_v, seg_inv_m,
                       seg_body, friction, dt, impulses, depth)
+        if BUDGET.fem is None:                         # the kernels' warm-up
+            return
         rod_slave = node_body[pair_n] == ROD           # the slave takes -I
         rod_face = seg_body[pair_s] == ROD             # the face's nodes take +I
         BUDGET.sums["node_rs"] += float(-impulses[rod_slave, 2].sum())

@@ -42,6 +42,14 @@ CONVERT = {
     "volume_ratio": Field(number(greater(0), at_most(1)), OMIT, "1",
                           "an element converts when its volume falls to this fraction of "
                           "its initial volume (left out: only when it would invert)"),
+    "step_ratio": Field(number(greater(0), at_most(1)), OMIT, "1",
+                        "an element converts when its stable time step, taken at its "
+                        "material's initial density and wave speed (so a measure of its "
+                        "shape: squeezed, sheared or hourglassed), falls to this fraction "
+                        "of the shortest such step of its body's elements at the start: "
+                        "erosion on the time step, so that one distorted element does not "
+                        "set a collapsing step for the whole run (left out: not on the "
+                        "step; the oblique perforation uses 0.2)"),
     "particles_per_direction": Field(integer(at_least(1), at_most(MAX_CONVERT_DIVISIONS)), 2,
                                      "1", "an element becomes n^3 particles at the centres "
                                           "of its n^3 sub-cells (seed 004: 2, 8 particles)"),

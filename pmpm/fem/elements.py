@@ -56,9 +56,11 @@ Hourglass = namedtuple("Hourglass", "kind coefficient resist energy")
 
 
 @njit(cache=True)
-def element_forces(mesh, mat, bodies, hourglass, dt, force):
+def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None):
     """Stress update and internal plus hourglass forces of every element, added to
-    ``force`` (n, 3).
+    ``force`` (n, 3); with ``rates`` (n_elements,) each element's own stable rate too
+    (0 for a rigid body's or a failed update, inf for an inverted element: the
+    conversion on the step, pmpm.solver.conversion, reads it).
 
     Parameters
     ----------
@@ -97,6 +99,8 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
         if not volume > 0.0:
             if bad < 0:
                 bad, why = e, NON_POSITIVE_VOLUME
+            if rates is not None:
+                rates[e] = np.inf
             continue
         inv_volume = fdiv(1.0, volume)      # no division with a raise path in the loop
         length = volume * fdiv(1.0, largest_face_area(xe))
@@ -117,9 +121,11 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force):
         hourglass_shapes(xe, b, inv_volume, gamma)
         if hg_kind[bb] == ASSUMED_STRAIN:
             element_frame(xe, frame, half)
-        rate = max(rate, stable_rate(b, gamma, volume, length, rho[e], c, params[bb],
-                                     hg_kind[bb], hg_coefficient[bb],
-                                     Lg[0, 0] + Lg[1, 1] + Lg[2, 2], half))
+        own = stable_rate(b, gamma, volume, length, rho[e], c, params[bb], hg_kind[bb],
+                          hg_coefficient[bb], Lg[0, 0] + Lg[1, 1] + Lg[2, 2], half)
+        rate = max(rate, own)
+        if rates is not None:
+            rates[e] = own
         if hg_kind[bb] == ASSUMED_STRAIN:
             hg_energy[e] += assumed_strain_forces(
                 e, ve, gamma, volume,

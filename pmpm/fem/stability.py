@@ -117,16 +117,18 @@ def stable_rate(b, gamma, volume, length, rho, c, prm, hg_kind, hg_k, div, half)
 
 
 @njit(cache=True)
-def mesh_rate(x, hexes, body, rho, c, params, hg_kind, hg_k):
-    """The largest stable_rate over the elements of ``hexes`` at rest (div = 0) with the
-    per-body density ``rho``, wave speed ``c``, material rows ``params`` and hourglass
-    forms (for the set-up's first step and the tests; the step's own rate comes from
-    element_forces)."""
+def element_rates(x, hexes, body, rho, c, params, hg_kind, hg_k, out):
+    """Per element of ``hexes`` its stable_rate at rest (div = 0) with the per-body density
+    ``rho``, wave speed ``c``, material rows ``params`` and hourglass forms, into ``out``
+    (0 where the body has no wave speed, inf where the element is inverted). With the
+    materials' initial density and speed it depends on the element's shape only: the
+    set-up's first step and the conversion on a collapsing step (pmpm.solver.conversion)
+    read it; the step's own rate comes from element_forces."""
     xe, b, gamma = np.empty((8, 3)), np.empty((8, 3)), np.empty((4, 8))
     frame, half = np.empty((3, 3)), np.ones(3)
-    largest = 0.0
     for e in range(hexes.shape[0]):
         bb = body[e]
+        out[e] = 0.0
         if c[bb] <= 0.0:
             continue
         for k in range(8):
@@ -134,12 +136,24 @@ def mesh_rate(x, hexes, body, rho, c, params, hg_kind, hg_k):
                 xe[k, i] = x[hexes[e, k], i]
         volume = mean_gradient(xe, b)
         if not volume > 0.0:
+            out[e] = np.inf
             continue
         hourglass_shapes(xe, b, 1.0 / volume, gamma)
         if hg_kind[bb] == ASSUMED_STRAIN:
             element_frame(xe, frame, half)
         length = volume / largest_face_area(xe)
-        largest = max(largest, stable_rate(b, gamma, volume, length, rho[bb], c[bb],
-                                           params[bb], hg_kind[bb], hg_k[bb], 0.0,
-                                           half))
+        out[e] = stable_rate(b, gamma, volume, length, rho[bb], c[bb], params[bb],
+                             hg_kind[bb], hg_k[bb], 0.0, half)
+
+
+@njit(cache=True)
+def mesh_rate(x, hexes, body, rho, c, params, hg_kind, hg_k):
+    """The largest stable_rate over the elements of ``hexes`` at rest that are not
+    inverted (element_rates; for the set-up's first step and the tests)."""
+    out = np.empty(hexes.shape[0])
+    element_rates(x, hexes, body, rho, c, params, hg_kind, hg_k, out)
+    largest = 0.0
+    for e in range(out.shape[0]):
+        if out[e] < np.inf:
+            largest = max(largest, out[e])
     return largest

@@ -40,7 +40,7 @@ def warm_up_elements(mat, bodies):
     hourglass = fe.Hourglass(kind, coefficient, np.zeros((1, 12)), np.zeros(1))
     force = np.zeros((8, 3))
     fe.element_forces(fe.ElementMesh(x, v, hexes, body), mat, bodies, hourglass, 1e-3,
-                      force)
+                      force, np.zeros(1))
     fe.external_forces(mass, np.zeros(3), np.full(8, -1, np.int32), np.zeros(1),
                        np.zeros((1, 3)), force)
     fe.advance_velocities(v, force, mass, np.zeros((8, 3), np.bool_), 1e-3)

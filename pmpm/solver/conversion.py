@@ -4,7 +4,10 @@
 At the end of a step, after the points and the FE nodes have moved, an element of a body
 with ``fem.convert`` becomes n^3 particles of the same body when its plastic strain
 reaches ``convert.eps_p``, when its volume falls to ``convert.volume_ratio`` of its
-initial volume, or whenever it would invert (volume at most 0):
+initial volume, when its stable step (as the last force pass took it: its shape, its
+current wave speed and viscosities) falls to ``convert.step_ratio`` of its body's
+shortest step at the start (at rest, the materials' initial wave speeds), or whenever it
+would invert (volume at most 0):
 
 * the particles sit at the centres of the element's n^3 sub-cells in its natural
   coordinates, xi = (2a + 1)/n - 1, mapped by the element's trilinear shape functions
@@ -45,13 +48,15 @@ ID_STRIDE = MAX_CONVERT_DIVISIONS ** 3
 
 class ConversionRules:
     """Per body the conversion criteria: ``divisions`` (nb,) int (0: the body does not
-    convert), ``eps_p`` and ``volume_ratio`` (nb,) (inf / 0 where not set)."""
+    convert), ``eps_p``, ``volume_ratio`` and ``step_ratio`` (nb,) (inf / 0 / 0 where not
+    set)."""
 
     def __init__(self, config):
         nb = len(config.bodies)
         self.divisions = np.zeros(nb, np.int64)
         self.eps_p = np.full(nb, np.inf)
         self.volume_ratio = np.zeros(nb)
+        self.step_ratio = np.zeros(nb)
         for b, body in enumerate(config.bodies):
             convert = (body.fem or {}).get("convert") if body.method == "fem" else None
             if not convert:
@@ -59,6 +64,7 @@ class ConversionRules:
             self.divisions[b] = convert["particles_per_direction"]
             self.eps_p[b] = convert.get("eps_p", np.inf)
             self.volume_ratio[b] = convert.get("volume_ratio", 0.0)
+            self.step_ratio[b] = convert.get("step_ratio", 0.0)
 
     @property
     def active(self):
@@ -90,6 +96,20 @@ class Conversion:
         self.particles_per_cell = np.asarray(particles_per_cell, np.float64)
         self.converted = 0           # elements, over all ranks, since the start
         self.kinetic_loss = 0.0      # this rank's share
+        self.start_rates = self.initial_rates()
+
+    def initial_rates(self):
+        """(nb,) per body the largest shape rate of its elements at their initial
+        positions (FemBodies.shape_rates), over all ranks: 1 / its shortest initial step
+        at cfl 1; zeros where no body converts on the step (collective)."""
+        nb = len(self.rules.step_ratio)
+        if not self.rules.step_ratio.any():
+            return np.zeros(nb)
+        largest = np.zeros(nb)
+        fem = self.elements
+        if fem.n_elements:
+            np.maximum.at(largest, fem.body, fem.shape_rates(initial=True))
+        return self.world.max(largest)
 
     def state(self):
         """What a checkpoint keeps (collective): the ids, the count, and the energies
@@ -97,11 +117,14 @@ class Conversion:
         hourglass, loss = self.world.sum(np.array([self.elements.converted_hourglass,
                                                    self.kinetic_loss]))
         return {"id_base": self.id_base, "converted": self.converted,
-                "hourglass": float(hourglass), "kinetic_loss": float(loss)}
+                "hourglass": float(hourglass), "kinetic_loss": float(loss),
+                "start_rates": [float(r) for r in self.start_rates]}
 
     def restore(self, state):
         """Take a checkpoint's :meth:`state` (its energies on rank 0)."""
         self.id_base, self.converted = int(state["id_base"]), int(state["converted"])
+        if "start_rates" in state:       # checkpoints before the step criterion: as found
+            self.start_rates = np.asarray(state["start_rates"], np.float64)
         if self.world.is_root:
             self.elements.converted_hourglass = float(state["hourglass"])
             self.kinetic_loss = float(state["kinetic_loss"])
@@ -131,9 +154,14 @@ class Conversion:
             return np.zeros(0, bool)
         b = fem.body
         ratio = fem.volumes() / fem.vol0
-        return (self.rules.divisions[b] > 0) & (
+        chosen = (self.rules.divisions[b] > 0) & (
             (fem.state.eps_p >= self.rules.eps_p[b])
             | (ratio <= self.rules.volume_ratio[b]) | (ratio <= 0.0))
+        if self.rules.step_ratio.any():
+            limit = self.start_rates[b] / np.maximum(self.rules.step_ratio[b], 1e-300)
+            chosen |= (self.rules.step_ratio[b] > 0) & (self.rules.divisions[b] > 0) \
+                & (fem.step_rates() >= limit)
+        return chosen
 
     def particles_of(self, converted):
         """The particle columns of the elements ``converted`` (local indices)."""

@@ -38,7 +38,7 @@ from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
                             element_forces, external_forces, lumped_masses)
 from ..fem.hexahedron import FACES, element_volumes
 from ..fem.nodes import advance_and_hold, first_outside, hold_at_faces
-from ..fem.stability import mesh_rate
+from ..fem.stability import element_rates, mesh_rate
 from ..kernels.records import BodyMaterials
 from ..materials import layout
 from ..materials.state import MaterialState, with_later_columns
@@ -146,6 +146,7 @@ class FemBodies:
         self.x = np.ascontiguousarray(whole.x[part.nodes])
         self.x0 = self.x.copy()                     # where each node was at the start
         self.hexes = np.ascontiguousarray(part.hexes, np.int64)
+        self.rates = np.zeros(len(self.hexes))      # each element's, from the force pass
         self.node_body = whole.node_body[part.nodes]
         self.body = whole.body[part.elements]
         self.vol0 = whole.vol0[part.elements]
@@ -273,6 +274,7 @@ class FemBodies:
         self.element_id, self.body = e["element_id"], e["body"]
         self.vol0, self.element_mass = e["vol0"], e["element_mass"]
         self.hexes = np.searchsorted(self.node_id, e["hexes"]).astype(np.int64)
+        self.rates = np.zeros(len(self.hexes))      # until the next force pass
         self.state = MaterialState(*(e[name] for name in MaterialState._fields))
         self.hourglass = self.hourglass._replace(resist=e["resist"], energy=e["hg_energy"])
         self.partners, self.owned = shared_with(self.world, self.node_id, self.x,
@@ -285,6 +287,18 @@ class FemBodies:
         out = np.empty(len(self.hexes))
         element_volumes(self.x, self.hexes, out)
         return out
+
+    def step_rates(self):
+        """Each element's stable rate (1 / its step at cfl 1) from the last force pass
+        (0 before the first one after the elements changed)."""
+        return self.rates
+
+    def shape_rates(self, initial=False):
+        """Per element its stable rate at rest with its material's initial density and
+        wave speed, at the current positions (``initial``: at the nodes' initial ones)."""
+        x = self.x0 if initial else self.x
+        return rates_at_rest(self.table, x, self.hexes, self.body, self.hourglass.kind,
+                           self.hourglass.coefficient)
 
     def mass_shares(self, chosen):
         """(element ids, node ids (m, 8), m_e / 8) of the elements ``chosen`` (bool)."""
@@ -325,10 +339,12 @@ class FemBodies:
     # -- phases -------------------------------------------------------------------------
     def stress_and_forces(self, dt):
         """Element stresses and nodal forces, summed over the ranks sharing a node, then
-        gravity and loads; ``speed`` = h times the largest stable rate."""
+        gravity and loads; ``speed`` = h times the largest stable rate, ``rates`` each
+        element's."""
         self.force[:] = 0.0
+        self.rates = np.zeros(len(self.hexes))
         rate, bad, why = element_forces(self.mesh(), self.state, self.materials,
-                                        self.hourglass, dt, self.force)
+                                        self.hourglass, dt, self.force, self.rates)
         self.force = sum_shared_rows(self.world, self.force, self.partners)
         external_forces(self.mass, self.gravity, self.load, self.load_scale,
                         self.load_vectors, self.force)
@@ -617,10 +633,27 @@ def hourglass_form(fem):
 def start_rate(table, x, hexes, body, hg_kind, hg_k):
     """The largest stable rate (1 / step at cfl 1) of the elements ``hexes`` at rest with
     their materials' initial densities and wave speeds (rigid bodies: none)."""
-    nb = len(table.names)
-    speeds = np.array([0.0 if table.rigid[b] else table.initial_wave_speed(b)
-                       for b in range(nb)])
-    rho0 = np.ascontiguousarray(table.params[:, layout.RHO0])
+    rho0, speeds = initial_waves(table)
     return mesh_rate(x, np.asarray(hexes, np.int64), np.asarray(body, np.int32), rho0,
                      speeds, table.params, np.asarray(hg_kind, np.int64),
                      np.asarray(hg_k, np.float64))
+
+
+def rates_at_rest(table, x, hexes, body, hg_kind, hg_k):
+    """Per element of ``hexes`` the stable rate at rest with its material's initial
+    density and wave speed: a measure of its shape (0 for rigid bodies, inf where
+    inverted; pmpm.fem.stability.element_rates)."""
+    rho0, speeds = initial_waves(table)
+    out = np.empty(len(hexes))
+    element_rates(x, np.asarray(hexes, np.int64), np.asarray(body, np.int32), rho0, speeds,
+                  table.params, np.asarray(hg_kind, np.int64), np.asarray(hg_k, np.float64),
+                  out)
+    return out
+
+
+def initial_waves(table):
+    """(rho0, c0) per body of the material table (c0 = 0 for rigid bodies)."""
+    nb = len(table.names)
+    speeds = np.array([0.0 if table.rigid[b] else table.initial_wave_speed(b)
+                       for b in range(nb)])
+    return np.ascontiguousarray(table.params[:, layout.RHO0]), speeds
