@@ -15,10 +15,15 @@ seen from outside (pmpm.fem.hexahedron.FACES), so r_xi x r_eta points out of the
 import numpy as np
 from numba import njit
 
+from .boundary import constrain_velocity
+from .shape import LINEAR, MAX_NODES, weights
+
 
 XI = np.array([-1.0, 1.0, 1.0, -1.0])
 ETA = np.array([-1.0, -1.0, 1.0, 1.0])
 NEWTON_STEPS = 25
+#: a node within this many cells beyond the particle still counts on the face's side
+FACE_SIDE_TOLERANCE = 1e-9
 
 
 @njit(cache=True)
@@ -264,3 +269,123 @@ def pair_impulses(pair_p, pair_s, pair_geo, mass, v, pbody, seg_v, seg_inv_m, se
         face_shapes(pair_geo[k, 0], pair_geo[k, 1], phi)
         pair_impulse(mass[p], v[p], seg_v[s], seg_inv_m[s], phi, pair_geo[k, 2:5],
                      friction[pbody[p], seg_body[s]], impulses[k])
+
+
+# -- the particle side on the grid (issue 24 Sec. 4) ------------------------------------
+@njit(cache=True, inline="always")
+def node_offset_along(x, p, origin, inv_h, shape, axes, k, n):
+    """(x_I - x_p).n in cells for the k-th node of particle p's stencil (the order of
+    pmpm.kernels.shape.weights; ``axes`` as it left them)."""
+    if shape == LINEAR:
+        a, b, c = k // 4, (k // 2) % 2, k % 2
+        e = 0.0
+        for d, corner in ((0, a), (1, b), (2, c)):
+            t = (x[p, d] - origin[d]) * inv_h
+            e += (corner - (t - np.floor(t))) * n[d]
+        return e
+    a, b, c = k // 9, (k // 3) % 3, k % 3
+    return -(axes[2, a] * n[0] + axes[5, b] * n[1] + axes[8, c] * n[2])
+
+
+@njit(cache=True)
+def scatter_to_nodes(x, idx, body, values, normals, face_side, geo, field):
+    """``field[I] += W_Ip values[k]`` for every pair k, p = ``idx[k]``: a value of pair k
+    spread over the nodes its particle reads (``x`` the positions the step's transfers
+    used; ``geo`` the level's GridGeometry). W_Ip = N_Ip, or with ``face_side`` N_Ip on
+    the nodes no farther from the face than the particle ((x_I - x_p).n <= 0, n the
+    pair's normal ``normals[k]``, out of the face) renormalised to sum to 1: the nodes
+    between the particle and the face, where the body's surface lies (all of them when
+    none is)."""
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    for k in range(len(idx)):
+        p = idx[k]
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w)
+        if face_side:
+            kept = 0.0
+            for j in range(reach):
+                if node_offset_along(x, p, origin, inv_h, shape, axes, j,
+                                     normals[k]) > FACE_SIDE_TOLERANCE:
+                    w[j] = 0.0
+                kept += w[j]
+            if kept <= 0.0:
+                reach = weights(x, p, origin, inv_h, lo, strides, shape,
+                                half_width[body[p]], axes, nodes, w)
+                kept = 1.0
+            for j in range(reach):
+                w[j] /= kept
+        for j in range(reach):
+            for c in range(values.shape[1]):
+                field[nodes[j], c] += w[j] * values[k, c]
+
+
+@njit(cache=True)
+def gather_from_nodes(x, idx, body, geo, field, out):
+    """``out[k] = sum_I N_I(x_p) field[I]``, p = ``idx[k]``: a nodal field where the
+    particle reads it."""
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    for k in range(len(idx)):
+        p = idx[k]
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w)
+        for c in range(field.shape[1]):
+            out[k, c] = 0.0
+        for j in range(reach):
+            for c in range(field.shape[1]):
+                out[k, c] += w[j] * field[nodes[j], c]
+
+
+@njit(cache=True)
+def nodal_velocity_changes(nodal, impulse, gnew, faces, friction, dv):
+    """``dv[I]``: the velocity change the nodal impulse ``impulse[I]`` gives node I of
+    mass ``nodal[I, 0]``, after the grid's fixed and slip faces (applied to the node's
+    new velocity ``gnew[I, :3]`` so that walls stop only motion into them); none at
+    empty nodes and nodes that carry a rigid body (their velocity is imposed). Returns
+    whether any node changes."""
+    vec = np.empty(3)
+    moved = False
+    for n in range(len(dv)):
+        m = nodal[n, 0]
+        if nodal[n, 4] > 0.0 or m <= 0.0 or (impulse[n, 0] == 0.0 and impulse[n, 1] == 0.0
+                                             and impulse[n, 2] == 0.0):
+            dv[n, 0] = dv[n, 1] = dv[n, 2] = 0.0
+            continue
+        for d in range(3):
+            vec[d] = gnew[n, d] + impulse[n, d] / m
+        if faces[n]:
+            constrain_velocity(vec, faces[n], friction)
+        for d in range(3):
+            dv[n, d] = vec[d] - gnew[n, d]
+        moved = True
+    return moved
+
+
+@njit(cache=True)
+def take_velocity_changes(x0, x, v, body, level, rigid, want, geo, dv, dt):
+    """Every deformable particle of level ``want`` takes the nodal velocity changes
+    ``dv`` as its grid-to-particle update would have: v += sum_I N_I(x0_p) dv_I and
+    x += dt times that (``x0`` the start-of-step positions the transfer used)."""
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    for p in range(len(x)):
+        if level[p] != want or rigid[body[p]]:
+            continue
+        reach = weights(x0, p, origin, inv_h, lo, strides, shape, half_width[body[p]],
+                        axes, nodes, w)
+        d0 = d1 = d2 = 0.0
+        for j in range(reach):
+            n, wj = nodes[j], w[j]
+            d0 += wj * dv[n, 0]
+            d1 += wj * dv[n, 1]
+            d2 += wj * dv[n, 2]
+        v[p, 0] += d0
+        v[p, 1] += d1
+        v[p, 2] += d2
+        x[p, 0] += dt * d0
+        x[p, 1] += dt * d1
+        x[p, 2] += dt * d2

@@ -80,6 +80,7 @@ import numpy as np
 from ..comm.shared_nodes import swap_with
 from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
+from ..kernels.boundary import column_kinds
 from ..kernels import surface_contact as ksc
 from .contact import SURFACE_COUPLING
 from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
@@ -89,8 +90,12 @@ from .couplings import Coupling, kept_copy
 #: the share of a particle centre's depth inside a face that its pair closes in a step,
 #: by moving the particle's position out (not its velocity: no energy, no momentum)
 GAP_CLOSURE = 0.5
+import os
+FACE_SIDE = os.environ.get('SC_FACE_SIDE', '1') == '1'
 #: the most buckets of the global search (their size grows beyond a face's to keep to it)
 MAX_BUCKETS = 2 ** 21
+#: how the grid fields of the particle side reflect across planes of symmetry
+SCALAR_KINDS, VECTOR_KINDS = column_kinds(1), column_kinds(3, velocity=(0,))
 SEGMENT_FIELDS = ("gid", "x", "x0", "v", "inv_m", "body", "key", "holders")
 
 
@@ -134,6 +139,7 @@ class SurfaceContact(Coupling):
         self.last_pairs, self.largest_penetration, self.deepest = 0, 0.0, 0.0
         self.force_log = None          # pmpm.solver.forces.ForceLog, set by the simulation
         self.start_x = self.start_node_x = None
+        self.grids = None              # the step's grid levels, kept by after_scatter
         self.refresh_faces()
 
     # -- the master segments --------------------------------------------------------
@@ -196,7 +202,9 @@ class SurfaceContact(Coupling):
     # -- the step ---------------------------------------------------------------------
     def after_scatter(self, grids, kinds):
         """Keep the start-of-step positions of the particles and FE nodes: the search
-        tells from them on which side of a face a centre that is now inside it was."""
+        tells from them on which side of a face a centre that is now inside it was, and
+        the particles read the grid from theirs (:meth:`push_particles`)."""
+        self.grids = grids
         self.start_x = kept_copy(self.start_x, self.points.particles.x)
         self.start_node_x = kept_copy(self.start_node_x, self.elements.x)
 
@@ -206,28 +214,31 @@ class SurfaceContact(Coupling):
         phi = shapes(found_geo[:, 0], found_geo[:, 1])
         p = self.points.particles
         v_c = np.einsum("kj,kjd->kd", phi, segs["v"][found_s])
-        closing = -np.einsum("kd,kd->k", p.v[found_p] - v_c, found_geo[:, 2:5])
+        v_grid = self.grid_velocities(found_p)
+        closing = -np.einsum("kd,kd->k", v_grid - v_c, found_geo[:, 2:5])
         approach = closing > 0.0
         pair_p, pair_s, geo, phi = found_p[approach], found_s[approach], \
             found_geo[approach], phi[approach]
         lent_inv_m = segs["inv_m"] * self.phi_sums(segs, pair_p, pair_s, phi)
+        m_side = 1.0 / self.grid_side_inverse_masses(pair_p, geo[:, 2:5])
         impulses = np.zeros((len(pair_p), 3))
         rigid, bodies = self.elements.rigid_motion, segs["body"][pair_s]
+        own = np.arange(len(pair_p))
+        v_p, body_p = v_grid[approach], p.body[pair_p].astype(np.int64)
         if rigid is not None:       # free rigid faces lend a share of their body's mass
             lent = rigid.lent_inverse_mass(bodies, geo[:, 2:5], lent_inv_m[pair_s],
-                                           p.mass[pair_p] * closing[approach])
-            ksc.pair_impulses(pair_p, np.arange(len(pair_p)), geo, p.mass, p.v,
-                              p.body.astype(np.int64), segs["v"][pair_s], lent, bodies,
-                              self.friction, impulses)
+                                           m_side * closing[approach])
+            ksc.pair_impulses(own, own, geo, m_side, v_p, body_p, segs["v"][pair_s], lent,
+                              bodies, self.friction, impulses)
         else:
             lent = lent_inv_m[pair_s]
-            ksc.pair_impulses(pair_p, pair_s, geo, p.mass, p.v, p.body.astype(np.int64),
-                              segs["v"], lent_inv_m, segs["body"], self.friction, impulses)
+            ksc.pair_impulses(own, pair_s, geo, m_side, v_p, body_p, segs["v"], lent_inv_m,
+                              segs["body"], self.friction, impulses)
         if self.force_log is not None:       # before the pushes change the velocities
             self.force_log.surface_pairs(
                 p.body[pair_p], bodies, impulses, geo[:, 2:5],
-                p.v[pair_p] - v_c[approach],
-                1.0 / p.mass[pair_p] + np.einsum("kj,kj->k", phi, lent))
+                v_p - v_c[approach],
+                1.0 / m_side + np.einsum("kj,kj->k", phi, lent))
         lift = np.zeros(len(found_p))
         lift[approach] = self.push_particles(pair_p, geo, impulses, dt)
         self.close_gaps(found_p, found_geo, lift)
@@ -235,6 +246,81 @@ class SurfaceContact(Coupling):
         if rigid is not None:
             rigid.take_impulses(self.elements, bodies, p.id[pair_p], impulses, dt)
         self.last_pairs = len(pair_p)
+
+    # -- the particle side on the grid ---------------------------------------------------
+    def level_pairs(self, state, pair_p):
+        """The pairs (indices into ``pair_p``) whose particle is on grid level ``state``."""
+        return np.flatnonzero(self.points.level_of[pair_p] == state.index)
+
+    def grid_velocities(self, pair_p):
+        """Per pair, the new grid velocity at its particle, sum_I N_Ip v_I: what the
+        particle moved with in this step, and what the impulses on the grid change."""
+        p, out = self.points.particles, np.zeros((len(pair_p), 3))
+        for s in self.grids:
+            k = self.level_pairs(s, pair_p)
+            part = np.empty((len(k), 3))
+            ksc.gather_from_nodes(self.start_x, pair_p[k], p.body, s.geometry,
+                                  s.gnew[:, :3], part)
+            out[k] = part
+        return out
+
+    def grid_side_inverse_masses(self, pair_p, normals):
+        """Per pair k, 1 / m_k = sum_I N_Ip S_I / m_I over the nodes I its particle p
+        reads (collective): the mass the particle body's grid lends the pair. Its impulse
+        goes onto those nodes (:meth:`push_particles`), node I taking N_Ip of it, and
+        S_I = sum of N_Ip over the pairs on I (all ranks) shares I's mass m_I among them,
+        as the phi sums share a face node's: a layer of pairs on one node row that moves
+        alike is stopped in one step, as the row itself would be."""
+        p, grids = self.points.particles, self.grids
+        grids.zeros("sc_share", 1)
+        for s in grids:
+            k = self.level_pairs(s, pair_p)
+            ksc.scatter_to_nodes(self.start_x, pair_p[k], p.body, np.ones((len(k), 1)),
+                                 normals[k], FACE_SIDE, s.geometry, s.sc_share)
+        grids.sum_shared("sc_share")
+        grids.reflect("sc_share", SCALAR_KINDS)
+        inverse = np.zeros((len(pair_p), 1))
+        for s in grids:
+            k = self.level_pairs(s, pair_p)
+            m = s.nodal[:, :1]
+            lent = np.where((m > 0.0) & (s.nodal[:, 4:5] <= 0.0),
+                            s.sc_share / np.where(m > 0.0, m, 1.0), 0.0)
+            part = np.empty((len(k), 1))
+            ksc.gather_from_nodes(self.start_x, pair_p[k], p.body, s.geometry, lent, part)
+            inverse[k] = part
+        return np.maximum(inverse[:, 0], 1e-300)
+
+    def push_particles(self, pair_p, geo, impulses, dt):
+        """Each approaching pair's impulse -I goes onto the particle body's grid, node I
+        of the particle's taking -N_Ip I (collective): the node's new velocity changes by
+        the sum of its impulses over its mass, and every particle that read the node in
+        this step's grid-to-particle update takes the change as it would have then
+        (velocity, and dt times it on its position): the contact force stands on the
+        grid, as seed 004's Eq. 54 puts it, and the particles that share the front nodes
+        without touching the face feel it too. Returns how far out along its normal each
+        pair's particle moved."""
+        p, grids = self.points.particles, self.grids
+        grids.zeros("sc_impulse", 3)
+        for s in grids:
+            k = self.level_pairs(s, pair_p)
+            ksc.scatter_to_nodes(self.start_x, pair_p[k], p.body, -impulses[k],
+                                 geo[k, 2:5], FACE_SIDE, s.geometry, s.sc_impulse)
+        grids.sum_shared("sc_impulse")
+        grids.reflect("sc_impulse", VECTOR_KINDS)
+        lift = np.zeros(len(pair_p))
+        rigid = np.asarray(self.points.bodies.rigid, np.bool_)
+        for s in grids:
+            dv = s.work.empty("sc_dv", s.block.n_nodes, 3)
+            if not ksc.nodal_velocity_changes(s.nodal, s.sc_impulse, s.gnew, s.nodes.faces,
+                                              s.nodes.friction, dv):
+                continue
+            k = self.level_pairs(s, pair_p)
+            change = np.empty((len(k), 3))
+            ksc.gather_from_nodes(self.start_x, pair_p[k], p.body, s.geometry, dv, change)
+            lift[k] = dt * np.einsum("kd,kd->k", change, geo[k, 2:5])
+            ksc.take_velocity_changes(self.start_x, p.x, p.v, p.body, self.points.level_of,
+                                      rigid, s.index, s.geometry, dv, dt)
+        return lift
 
     def close_gaps(self, pair_p, geo, lift):
         """Every pair whose particle centre is inside its face, approaching or not, moves
@@ -253,15 +339,6 @@ class SurfaceContact(Coupling):
         """The deepest particle centre behind a face found so far in the run, over all
         ranks (collective)."""
         return self.world.max(self.deepest)
-
-    def push_particles(self, pair_p, geo, impulses, dt):
-        """Each approaching pair's particle takes -I on its velocity and -dt I/m_p on its
-        position; returns how far that moved each out along its normal."""
-        p = self.points.particles
-        share = impulses / p.mass[pair_p, None]
-        p.v[pair_p] -= share
-        p.x[pair_p] -= dt * share
-        return -dt * np.einsum("kd,kd->k", share, geo[:, 2:5])
 
     def find_pairs(self, segs):
         """(particle index, segment index, geometry (xi, eta, n, g)) of every particle in
