@@ -288,37 +288,66 @@ def node_offset_along(x, p, origin, inv_h, shape, axes, k, n):
 
 
 @njit(cache=True)
-def scatter_to_nodes(x, idx, body, values, normals, face_side, geo, field):
-    """``field[I] += W_Ip values[k]`` for every pair k, p = ``idx[k]``: a value of pair k
-    spread over the nodes its particle reads (``x`` the positions the step's transfers
-    used; ``geo`` the level's GridGeometry). W_Ip = N_Ip, or with ``face_side`` N_Ip on
-    the nodes no farther from the face than the particle ((x_I - x_p).n <= 0, n the
-    pair's normal ``normals[k]``, out of the face) renormalised to sum to 1: the nodes
-    between the particle and the face, where the body's surface lies (all of them when
-    none is)."""
+def face_side_nodes(x, idx, body, normals, geo, node, pair, weight):
+    """The nodes of pair k (particle p = ``idx[k]``, normal ``normals[k]`` out of the
+    face) that stand for the particle body's surface there: of the nodes the particle
+    reads (``x`` the positions the step's transfers used; ``geo`` the level's
+    GridGeometry), those no farther from the face than the particle, (x_I - x_p).n <= 0
+    (all of them when none is), with weights W_Ik = N_Ip renormalised to sum to 1 over
+    them. Fills rows (``node``, ``pair`` = k, ``weight``) and returns how many."""
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    rows = 0
     for k in range(len(idx)):
         p = idx[k]
         reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
                         nodes, w)
-        if face_side:
-            kept = 0.0
-            for j in range(reach):
+        kept = 0.0
+        for j in range(reach):
+            if node_offset_along(x, p, origin, inv_h, shape, axes, j,
+                                 normals[k]) <= FACE_SIDE_TOLERANCE:
+                kept += w[j]
+        for j in range(reach):
+            if w[j] <= 0.0:
+                continue
+            if kept > 0.0:
                 if node_offset_along(x, p, origin, inv_h, shape, axes, j,
                                      normals[k]) > FACE_SIDE_TOLERANCE:
-                    w[j] = 0.0
-                kept += w[j]
-            if kept <= 0.0:
-                reach = weights(x, p, origin, inv_h, lo, strides, shape,
-                                half_width[body[p]], axes, nodes, w)
-                kept = 1.0
-            for j in range(reach):
-                w[j] /= kept
-        for j in range(reach):
-            for c in range(values.shape[1]):
-                field[nodes[j], c] += w[j] * values[k, c]
+                    continue
+                share = w[j] / kept
+            else:
+                share = w[j]
+            node[rows], pair[rows], weight[rows] = nodes[j], k, share
+            rows += 1
+    return rows
+
+
+@njit(cache=True)
+def node_pair_impulses(node, pair, weight, node_mass, node_share, node_v, pair_s, geo,
+                       seg_v, seg_inv_m, friction, impulses):
+    """``impulses[r]``: the impulse of row r (node I = ``node[r]`` of pair k =
+    ``pair[r]``, weight W = ``weight[r]``) on the face point C of pair k, node I taking
+    minus it: W times the stick impulse (pair_impulse) between node I, lent m_I / S_I
+    (S_I = ``node_share[I]``, the sum of W over the pairs on I), at its new velocity
+    v_I, and pair k's face lent 1 / W of what it lends the pair (its rows together
+    take the pair's share). Zero where node I separates from C. ``geo`` (k, 6): xi,
+    eta, n, g per pair; ``friction[k]`` its Coulomb coefficient."""
+    phi, lent, out = np.empty(4), np.empty(4), np.empty(3)
+    for r in range(len(node)):
+        i, k, wr = node[r], pair[r], weight[r]
+        m, share = node_mass[i], node_share[i]
+        if m <= 0.0 or share <= 0.0 or wr <= 0.0:
+            impulses[r, 0] = impulses[r, 1] = impulses[r, 2] = 0.0
+            continue
+        face_shapes(geo[k, 0], geo[k, 1], phi)
+        s = pair_s[k]
+        for j in range(4):
+            lent[j] = seg_inv_m[s, j]
+        pair_impulse(m / share, node_v[i], seg_v[s], lent, phi, geo[k, 2:5], friction[k],
+                     out)
+        for d in range(3):
+            impulses[r, d] = wr * out[d]
 
 
 @njit(cache=True)

@@ -220,27 +220,21 @@ class SurfaceContact(Coupling):
         pair_p, pair_s, geo, phi = found_p[approach], found_s[approach], \
             found_geo[approach], phi[approach]
         lent_inv_m = segs["inv_m"] * self.phi_sums(segs, pair_p, pair_s, phi)
-        m_side = 1.0 / self.grid_side_inverse_masses(pair_p, geo[:, 2:5])
-        impulses = np.zeros((len(pair_p), 3))
         rigid, bodies = self.elements.rigid_motion, segs["body"][pair_s]
-        own = np.arange(len(pair_p))
-        v_p, body_p = v_grid[approach], p.body[pair_p].astype(np.int64)
+        rows = self.surface_nodes(pair_p, geo[:, 2:5])
         if rigid is not None:       # free rigid faces lend a share of their body's mass
             lent = rigid.lent_inverse_mass(bodies, geo[:, 2:5], lent_inv_m[pair_s],
-                                           m_side * closing[approach])
-            ksc.pair_impulses(own, own, geo, m_side, v_p, body_p, segs["v"][pair_s], lent,
-                              bodies, self.friction, impulses)
+                                           self.pair_masses(rows, len(pair_p))
+                                           * closing[approach])
+            faces = np.arange(len(pair_p)), segs["v"][pair_s], lent
         else:
             lent = lent_inv_m[pair_s]
-            ksc.pair_impulses(own, pair_s, geo, m_side, v_p, body_p, segs["v"], lent_inv_m,
-                              segs["body"], self.friction, impulses)
-        if self.force_log is not None:       # before the pushes change the velocities
-            self.force_log.surface_pairs(
-                p.body[pair_p], bodies, impulses, geo[:, 2:5],
-                v_p - v_c[approach],
-                1.0 / m_side + np.einsum("kj,kj->k", phi, lent))
+            faces = pair_s, segs["v"], lent_inv_m
+        friction = self.friction[p.body[pair_p], bodies]
+        impulses = self.push_particles(rows, pair_p, geo, faces, friction, v_c[approach],
+                                       bodies, dt)
         lift = np.zeros(len(found_p))
-        lift[approach] = self.push_particles(pair_p, geo, impulses, dt)
+        lift[approach] = self.lifts(pair_p, geo, dt)
         self.close_gaps(found_p, found_geo, lift)
         self.push_nodes(segs, pair_p, pair_s, phi, impulses, dt)
         if rigid is not None:
@@ -254,7 +248,7 @@ class SurfaceContact(Coupling):
 
     def grid_velocities(self, pair_p):
         """Per pair, the new grid velocity at its particle, sum_I N_Ip v_I: what the
-        particle moved with in this step, and what the impulses on the grid change."""
+        particle moved with in this step."""
         p, out = self.points.particles, np.zeros((len(pair_p), 3))
         for s in self.grids:
             k = self.level_pairs(s, pair_p)
@@ -264,63 +258,112 @@ class SurfaceContact(Coupling):
             out[k] = part
         return out
 
-    def grid_side_inverse_masses(self, pair_p, normals):
-        """Per pair k, 1 / m_k = sum_I N_Ip S_I / m_I over the nodes I its particle p
-        reads (collective): the mass the particle body's grid lends the pair. Its impulse
-        goes onto those nodes (:meth:`push_particles`), node I taking N_Ip of it, and
-        S_I = sum of N_Ip over the pairs on I (all ranks) shares I's mass m_I among them,
-        as the phi sums share a face node's: a layer of pairs on one node row that moves
-        alike is stopped in one step, as the row itself would be."""
-        p, grids = self.points.particles, self.grids
+    def surface_nodes(self, pair_p, normals):
+        """Per level, the rows (node, pair, weight W_Ik) of the particle body's grid
+        nodes that stand for its surface at each pair (kernel ``face_side_nodes``), and
+        on every node S_I = sum of W_Ik over the pairs of all ranks (``sc_share``,
+        collective): node I lends pair k the share W_Ik / S_I of its mass, so that pairs
+        alike on one node stop it together in one step, as one pair would."""
+        p, grids, rows = self.points.particles, self.grids, []
         grids.zeros("sc_share", 1)
         for s in grids:
             k = self.level_pairs(s, pair_p)
-            ksc.scatter_to_nodes(self.start_x, pair_p[k], p.body, np.ones((len(k), 1)),
-                                 normals[k], FACE_SIDE, s.geometry, s.sc_share)
+            size = len(k) * ksc.MAX_NODES
+            node, pair, weight = np.empty(size, np.int64), np.empty(size, np.int64), \
+                np.empty(size)
+            n = ksc.face_side_nodes(self.start_x, pair_p[k], p.body,
+                                    np.ascontiguousarray(normals[k]), s.geometry,
+                                    node, pair, weight)
+            rows.append((node[:n], k[pair[:n]], weight[:n]))
+            np.add.at(s.sc_share[:, 0], node[:n], weight[:n])
         grids.sum_shared("sc_share")
         grids.reflect("sc_share", SCALAR_KINDS)
-        inverse = np.zeros((len(pair_p), 1))
-        for s in grids:
-            k = self.level_pairs(s, pair_p)
-            m = s.nodal[:, :1]
-            lent = np.where((m > 0.0) & (s.nodal[:, 4:5] <= 0.0),
-                            s.sc_share / np.where(m > 0.0, m, 1.0), 0.0)
-            part = np.empty((len(k), 1))
-            ksc.gather_from_nodes(self.start_x, pair_p[k], p.body, s.geometry, lent, part)
-            inverse[k] = part
-        return np.maximum(inverse[:, 0], 1e-300)
+        return rows
 
-    def push_particles(self, pair_p, geo, impulses, dt):
-        """Each approaching pair's impulse -I goes onto the particle body's grid, node I
-        of the particle's taking -N_Ip I (collective): the node's new velocity changes by
-        the sum of its impulses over its mass, and every particle that read the node in
-        this step's grid-to-particle update takes the change as it would have then
+    def pair_masses(self, rows, n_pairs):
+        """Per pair, the grid mass its surface nodes lend it: sum_I W_Ik m_I / S_I."""
+        mass = np.zeros(n_pairs)
+        for s, (node, pair, weight) in zip(self.grids, rows):
+            lent = weight * self.node_masses(s)[node] / np.maximum(s.sc_share[node, 0],
+                                                                    1e-300)
+            np.add.at(mass, pair, lent)
+        return mass
+
+    @staticmethod
+    def node_masses(state):
+        """The particle bodies' nodal masses, 0 where a rigid body imposes the velocity."""
+        return np.where(state.nodal[:, 4] > 0.0, 0.0, state.nodal[:, 0])
+
+    def push_particles(self, rows, pair_p, geo, faces, friction, v_c, bodies, dt):
+        """The contact on the particle body's grid (collective): each surface node I of
+        pair k meets the pair's face point C by a stick impulse between I (lent m_I W_Ik
+        / S_I, at its new velocity) and C (lent W_Ik of the face's share), kernel
+        ``node_pair_impulses``. Node I takes minus the sum of its rows; its new velocity
+        changes by that over m_I (after the grid's faces), and every particle that read
+        it in this step's grid-to-particle update takes the change as it would have then
         (velocity, and dt times it on its position): the contact force stands on the
-        grid, as seed 004's Eq. 54 puts it, and the particles that share the front nodes
-        without touching the face feel it too. Returns how far out along its normal each
-        pair's particle moved."""
+        grid, as seed 004's Eq. 54 puts it, and the particles that share the surface
+        nodes without touching the face feel it too. Returns per pair the sum of its
+        rows' impulses (what its face takes)."""
         p, grids = self.points.particles, self.grids
+        impulses = np.zeros((len(pair_p), 3))
         grids.zeros("sc_impulse", 3)
-        for s in grids:
-            k = self.level_pairs(s, pair_p)
-            ksc.scatter_to_nodes(self.start_x, pair_p[k], p.body, -impulses[k],
-                                 geo[k, 2:5], FACE_SIDE, s.geometry, s.sc_impulse)
+        seg_s, seg_v, seg_inv_m = faces
+        for s, (node, pair, weight) in zip(grids, rows):
+            mass = self.node_masses(s)
+            share = s.sc_share[:, 0]
+            row_impulses = np.empty((len(node), 3))
+            ksc.node_pair_impulses(node, pair, weight, mass, share, s.gnew[:, :3], seg_s,
+                                   geo, seg_v, seg_inv_m, friction, row_impulses)
+            np.add.at(s.sc_impulse, node, -row_impulses)
+            np.add.at(impulses, pair, row_impulses)
+            if self.force_log is not None:
+                self.log_rows(s, rows_of=(node, pair, weight), mass=mass, share=share,
+                              impulses=row_impulses, pair_p=pair_p, geo=geo, faces=faces,
+                              v_c=v_c, bodies=bodies)
         grids.sum_shared("sc_impulse")
         grids.reflect("sc_impulse", VECTOR_KINDS)
-        lift = np.zeros(len(pair_p))
         rigid = np.asarray(self.points.bodies.rigid, np.bool_)
         for s in grids:
-            dv = s.work.empty("sc_dv", s.block.n_nodes, 3)
-            if not ksc.nodal_velocity_changes(s.nodal, s.sc_impulse, s.gnew, s.nodes.faces,
-                                              s.nodes.friction, dv):
+            s.sc_dv = s.work.empty("sc_dv", s.block.n_nodes, 3)
+            s.sc_moved = ksc.nodal_velocity_changes(s.nodal, s.sc_impulse, s.gnew,
+                                                    s.nodes.faces, s.nodes.friction,
+                                                    s.sc_dv)
+            if s.sc_moved:
+                ksc.take_velocity_changes(self.start_x, p.x, p.v, p.body,
+                                          self.points.level_of, rigid, s.index,
+                                          s.geometry, s.sc_dv, dt)
+        return impulses
+
+    def lifts(self, pair_p, geo, dt):
+        """How far out along its normal each pair's particle moved by the nodes' velocity
+        changes (:meth:`push_particles`)."""
+        p, lift = self.points.particles, np.zeros(len(pair_p))
+        for s in self.grids:
+            if not s.sc_moved:
                 continue
             k = self.level_pairs(s, pair_p)
             change = np.empty((len(k), 3))
-            ksc.gather_from_nodes(self.start_x, pair_p[k], p.body, s.geometry, dv, change)
+            ksc.gather_from_nodes(self.start_x, pair_p[k], p.body, s.geometry, s.sc_dv,
+                                  change)
             lift[k] = dt * np.einsum("kd,kd->k", change, geo[k, 2:5])
-            ksc.take_velocity_changes(self.start_x, p.x, p.v, p.body, self.points.level_of,
-                                      rigid, s.index, s.geometry, dv, dt)
         return lift
+
+    def log_rows(self, state, rows_of, mass, share, impulses, pair_p, geo, faces, v_c,
+                 bodies):
+        """The force log's record of the rows of one level (before the pushes change the
+        velocities): row r gave the particle's body -impulses[r] and the face's body
+        +impulses[r]; its relative velocity is v_I - v_C, its inverse mass that of its
+        stick impulse over W (so that the log's work is the row's)."""
+        node, pair, weight = rows_of
+        seg_s, _, seg_inv_m = faces
+        face_phi = shapes(geo[pair, 0], geo[pair, 1])
+        inv_c = np.einsum("kj,kj->k", face_phi, seg_inv_m[seg_s[pair]])
+        inv_i = share[node] / np.maximum(mass[node], 1e-300)
+        p = self.points.particles
+        self.force_log.surface_pairs(
+            p.body[pair_p[pair]], bodies[pair], impulses, geo[pair, 2:5],
+            state.gnew[node, :3] - v_c[pair], (inv_i + inv_c) / weight)
 
     def close_gaps(self, pair_p, geo, lift):
         """Every pair whose particle centre is inside its face, approaching or not, moves
