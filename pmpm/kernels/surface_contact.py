@@ -273,22 +273,24 @@ def pair_impulses(pair_p, pair_s, pair_geo, mass, v, pbody, seg_v, seg_inv_m, se
 
 # -- the particle side on the grid (issue 24 Sec. 4) ------------------------------------
 @njit(cache=True, inline="always")
-def node_offset_along(x, p, origin, inv_h, shape, axes, k, n):
-    """(x_I - x_p).n in cells for the k-th node of particle p's stencil (the order of
-    pmpm.kernels.shape.weights; ``axes`` as it left them)."""
+def node_offset(x, p, origin, inv_h, shape, axes, k, e):
+    """e = (x_I - x_p) / h for the k-th node of particle p's stencil (the order of
+    pmpm.kernels.shape.weights; ``axes`` as that left it)."""
     if shape == LINEAR:
         a, b, c = k // 4, (k // 2) % 2, k % 2
-        e = 0.0
-        for d, corner in ((0, a), (1, b), (2, c)):
-            t = (x[p, d] - origin[d]) * inv_h
-            e += (corner - (t - np.floor(t))) * n[d]
-        return e
+        t0 = (x[p, 0] - origin[0]) * inv_h
+        t1 = (x[p, 1] - origin[1]) * inv_h
+        t2 = (x[p, 2] - origin[2]) * inv_h
+        e[0] = a - (t0 - np.floor(t0))
+        e[1] = b - (t1 - np.floor(t1))
+        e[2] = c - (t2 - np.floor(t2))
+        return
     a, b, c = k // 9, (k // 3) % 3, k % 3
-    return -(axes[2, a] * n[0] + axes[5, b] * n[1] + axes[8, c] * n[2])
+    e[0], e[1], e[2] = -axes[2, a], -axes[5, b], -axes[8, c]
 
 
 @njit(cache=True)
-def face_side_nodes(x, idx, body, normals, geo, node, pair, weight):
+def surface_nodes(x, idx, body, normals, geo, node, pair, weight):
     """The nodes of pair k (particle p = ``idx[k]``, normal ``normals[k]`` out of the
     face) that stand for the particle body's surface there: of the nodes the particle
     reads (``x`` the positions the step's transfers used; ``geo`` the level's
@@ -298,28 +300,27 @@ def face_side_nodes(x, idx, body, normals, geo, node, pair, weight):
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    e = np.empty(3)
     rows = 0
     for k in range(len(idx)):
         p = idx[k]
+        n = normals[k]
         reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
                         nodes, w)
+        side = w.copy()
         kept = 0.0
         for j in range(reach):
-            if node_offset_along(x, p, origin, inv_h, shape, axes, j,
-                                 normals[k]) <= FACE_SIDE_TOLERANCE:
-                kept += w[j]
+            node_offset(x, p, origin, inv_h, shape, axes, j, e)
+            if e[0] * n[0] + e[1] * n[1] + e[2] * n[2] > FACE_SIDE_TOLERANCE:
+                side[j] = 0.0
+            kept += side[j]
+        if kept <= 0.0:                 # no node on the face's side: all of them
+            side[:reach] = w[:reach]
+            kept = 1.0
         for j in range(reach):
-            if w[j] <= 0.0:
-                continue
-            if kept > 0.0:
-                if node_offset_along(x, p, origin, inv_h, shape, axes, j,
-                                     normals[k]) > FACE_SIDE_TOLERANCE:
-                    continue
-                share = w[j] / kept
-            else:
-                share = w[j]
-            node[rows], pair[rows], weight[rows] = nodes[j], k, share
-            rows += 1
+            if side[j] > 0.0:
+                node[rows], pair[rows], weight[rows] = nodes[j], k, side[j] / kept
+                rows += 1
     return rows
 
 
@@ -328,12 +329,14 @@ def node_pair_impulses(node, pair, weight, node_mass, node_share, node_v, pair_s
                        seg_v, seg_inv_m, friction, impulses):
     """``impulses[r]``: the impulse of row r (node I = ``node[r]`` of pair k =
     ``pair[r]``, weight W = ``weight[r]``) on the face point C of pair k, node I taking
-    minus it: W times the stick impulse (pair_impulse) between node I, lent m_I / S_I
+    minus it: the stick impulse (pair_impulse) between node I, lent W m_I / S_I
     (S_I = ``node_share[I]``, the sum of W over the pairs on I), at its new velocity
-    v_I, and pair k's face lent 1 / W of what it lends the pair (its rows together
-    take the pair's share). Zero where node I separates from C. ``geo`` (k, 6): xi,
-    eta, n, g per pair; ``friction[k]`` its Coulomb coefficient."""
-    phi, lent, out = np.empty(4), np.empty(4), np.empty(3)
+    v_I, and pair k's face, lent W of what it lends the pair (the rows of a pair
+    together take the pair's share): W times the stick impulse of m_I / S_I and the
+    pair's face. Zero where node I separates from C, is empty or rigid (m_I = 0).
+    ``geo`` (k, 6): xi, eta, n, g per pair; ``friction[k]`` its Coulomb coefficient;
+    ``seg_inv_m`` [s] what the nodes of segment ``pair_s[k]`` lend (pair_impulses)."""
+    phi, out = np.empty(4), np.empty(3)
     for r in range(len(node)):
         i, k, wr = node[r], pair[r], weight[r]
         m, share = node_mass[i], node_share[i]
@@ -342,10 +345,8 @@ def node_pair_impulses(node, pair, weight, node_mass, node_share, node_v, pair_s
             continue
         face_shapes(geo[k, 0], geo[k, 1], phi)
         s = pair_s[k]
-        for j in range(4):
-            lent[j] = seg_inv_m[s, j]
-        pair_impulse(m / share, node_v[i], seg_v[s], lent, phi, geo[k, 2:5], friction[k],
-                     out)
+        pair_impulse(m / share, node_v[i], seg_v[s], seg_inv_m[s], phi, geo[k, 2:5],
+                     friction[k], out)
         for d in range(3):
             impulses[r, d] = wr * out[d]
 
@@ -394,13 +395,16 @@ def nodal_velocity_changes(nodal, impulse, gnew, faces, friction, dv):
 
 
 @njit(cache=True)
-def take_velocity_changes(x0, x, v, body, level, rigid, want, geo, dv, dt):
+def take_velocity_changes(x0, x, v, body, level, rigid, want, geo, dv, dt, affine=None):
     """Every deformable particle of level ``want`` takes the nodal velocity changes
     ``dv`` as its grid-to-particle update would have: v += sum_I N_I(x0_p) dv_I and
-    x += dt times that (``x0`` the start-of-step positions the transfer used)."""
+    x += dt times that (``x0`` the start-of-step positions the transfer used); with
+    ``affine`` (APIC) also A_p += sum_I N_I dv_I (x_I - x_p)^T / h^2 (h^2 A_p's scale,
+    as pmpm.kernels.mpm gathers it)."""
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    e = np.empty(3)
     for p in range(len(x)):
         if level[p] != want or rigid[body[p]]:
             continue
@@ -409,9 +413,17 @@ def take_velocity_changes(x0, x, v, body, level, rigid, want, geo, dv, dt):
         d0 = d1 = d2 = 0.0
         for j in range(reach):
             n, wj = nodes[j], w[j]
+            if dv[n, 0] == 0.0 and dv[n, 1] == 0.0 and dv[n, 2] == 0.0:
+                continue
             d0 += wj * dv[n, 0]
             d1 += wj * dv[n, 1]
             d2 += wj * dv[n, 2]
+            if affine is not None:
+                node_offset(x0, p, origin, inv_h, shape, axes, j, e)
+                for c in range(3):
+                    affine[p, c] += wj * dv[n, 0] * e[c] * inv_h
+                    affine[p, 3 + c] += wj * dv[n, 1] * e[c] * inv_h
+                    affine[p, 6 + c] += wj * dv[n, 2] * e[c] * inv_h
         v[p, 0] += d0
         v[p, 1] += d1
         v[p, 2] += d2
