@@ -7,7 +7,11 @@ master segments (bilinear faces of FE elements), free of MPI and of the case.
   Newton, its outward unit normal and the gap;
 * ``find_pairs``: per particle its nearest segment, among those of its buckets, that it
   touches or has got behind in the step (``segment_moves``: how far each face moved);
-* ``pair_impulses``: per pair the stick impulse with Coulomb's cap (Eqs. 42-53).
+* ``pair_impulses``: per pair the stick impulse with Coulomb's cap (Eqs. 42-53);
+* the particle side on its body's grid (issue 24 Sec. 4): ``surface_nodes`` (a pair's
+  nodes between its particle and the face), ``node_pair_impulses`` (their stick
+  impulses), ``nodal_velocity_changes`` and ``take_velocity_changes`` (the nodes'
+  changes, and the particles that read them taking them), ``gather_from_nodes``.
 
 A face's nodes 0-3 sit at (xi, eta) = (-1,-1), (1,-1), (1,1), (-1,1), counter-clockwise
 seen from outside (pmpm.fem.hexahedron.FACES), so r_xi x r_eta points out of the body.

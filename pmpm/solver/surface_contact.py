@@ -39,8 +39,21 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
   step (at the trial positions, before any correction); :meth:`deepest_centre`: of the
   run, over all ranks (summary.json ``surface_contact.largest_penetration``).
 * Impulse (Eqs. 42-53): the stick impulse with Coulomb's cap (pmpm.kernels.
-  surface_contact.pair_impulse). The particle takes -I on its velocity and dt (-I)/m_p on
-  its position (the notes' option (b)); each FE node J of the face takes phi_J I on its
+  surface_contact.pair_impulse), met on the particle body's grid (issue 24 Sec. 4,
+  :meth:`push_grid`; seed 004's Eq. 54 puts the contact force on the grid): a pair
+  approaches by the grid velocity at its particle; its "surface nodes", those the
+  particle reads no farther from the face than it, with weights W_Ik = N_Ip renormalised
+  over them, each meet the face point by the stick impulse between node I, lent W_Ik m_I
+  / S_I (S_I = sum_k W_Ik over the pairs of all ranks), and the face, lent W_Ik of the
+  pair's share. Node I takes minus the sum of its rows; every particle that read it in
+  this step's grid-to-particle update takes its velocity change (velocity, dt times it on
+  its position, APIC matrix), so the particles sharing a node at the face with a pair
+  take the contact force too (on the particle alone, that node carried the body's stress
+  unbalanced and its other particles took the acceleration: a particle striker never
+  stopped on an FEM bar). Then what is left of the pair particle's own (FLIP) approach,
+  against the face point moved by the pair's impulse, takes the stick impulse with the
+  particle's mass (:meth:`stop_particles`; without it the sphere on the block lost 9-20 %
+  of its energy). Each FE node J of the face takes phi_J times the pair's impulses on its
   velocity and dt phi_J I/m_J on its position; rigid FEM bodies and held node components
   take nothing, but a free rigid body (``rigid.free``) takes the sum of its pairs'
   impulses on its velocity, each pair meeting a share of the body's mass
@@ -52,8 +65,9 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
   exact since every node still takes the full sum of its impulses. (Lending m_J / n_J to
   each of n_J pairs, as before issue 24, left a tiled face 22 % short of stopping each
   step, so its pairs met again every step as a train of small inelastic collisions: an
-  elastic sphere on an elastic block lost 77 % of its energy; now 0.1 %,
-  docs/validation/surface_contact_impact.md.)
+  elastic sphere on an elastic block lost 77 % of its energy;
+  docs/validation/surface_contact_impact.md.) Faces on a held face of the grid box
+  (slip, symmetry, fixed) are no contact faces (:func:`on_held_box_faces`).
 * Energy: a pair that stays in contact meets, each step, with only the relative
   velocity its bodies' forces built up in that step, and the stick impulse joins the
   two sides as one node would; the energy balance (solver.energy) falls only through
@@ -73,7 +87,8 @@ and 1 rank agrees with N to round-off (the sums are pmpm.solver.contact_sums', s
 node-to-surface contact between FEM bodies, pmpm.solver.node_contact). The four exchanges of a step (halo, phi
 sums and their answers, impulses) are packed sparse exchanges (pmpm.comm.sparse.
 exchange_arrays): a rank sends one buffer to each rank that gets something from it,
-none to the others.
+none to the others. The grid side's S_I and nodal impulses are grid fields, summed over
+the shared slab planes as the nodal masses are (two more sums a step).
 """
 import numpy as np
 
