@@ -399,18 +399,27 @@ def nodal_velocity_changes(nodal, impulse, gnew, faces, friction, dv):
 
 
 @njit(cache=True)
-def take_velocity_changes(x0, x, v, body, level, rigid, want, geo, dv, dt, affine=None):
+def take_velocity_changes(x0, x, v, body, level, rigid, want, geo, dv, near, dt,
+                          affine=None):
     """Every deformable particle of level ``want`` takes the nodal velocity changes
     ``dv`` as its grid-to-particle update would have: v += sum_I N_I(x0_p) dv_I and
     x += dt times that (``x0`` the start-of-step positions the transfer used); with
     ``affine`` (APIC) also A_p += sum_I N_I dv_I (x_I - x_p)^T / h^2 (h^2 A_p's scale,
-    as pmpm.kernels.mpm gathers it)."""
+    as pmpm.kernels.mpm gathers it). ``near[I]``: a node within one node of a changed
+    one; a particle whose nearest node is not near reads no changed node (every shape
+    reaches at most one node beyond its nearest) and is passed over."""
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e = np.empty(3)
     for p in range(len(x)):
         if level[p] != want or rigid[body[p]]:
+            continue
+        nearest = 0
+        for d in range(3):
+            c = np.int64(np.floor((x0[p, d] - origin[d]) * inv_h + 0.5))
+            nearest += (c - lo[d]) * strides[d]
+        if not near[nearest]:
             continue
         reach = weights(x0, p, origin, inv_h, lo, strides, shape, half_width[body[p]],
                         axes, nodes, w)

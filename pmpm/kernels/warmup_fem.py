@@ -89,11 +89,12 @@ def warm_up_surface_grid(pts, geo, block, nodal, gnew, affine):
     surface_contact.nodal_velocity_changes(nodal, dv.copy(), gnew, block.faces,
                                            block.friction, dv)
     rigid = np.zeros(1, np.bool_)
+    near = np.zeros(n, np.bool_)
     surface_contact.take_velocity_changes(x.copy(), x.copy(), pts.v.copy(), body, level,
-                                          rigid, 0, geo, dv, 1e-3, None)
+                                          rigid, 0, geo, dv, near, 1e-3, None)
     if affine is not None:
         surface_contact.take_velocity_changes(x.copy(), x.copy(), pts.v.copy(), body,
-                                              level, rigid, 0, geo, dv, 1e-3,
+                                              level, rigid, 0, geo, dv, near, 1e-3,
                                               affine.copy())
 
 

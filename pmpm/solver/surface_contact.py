@@ -343,7 +343,9 @@ class SurfaceContact(Coupling):
             if s.sc_moved:
                 ksc.take_velocity_changes(self.start_x, p.x, p.v, p.body,
                                           self.points.level_of, rigid, s.index,
-                                          s.geometry, s.sc_dv, dt, self.points.affine())
+                                          s.geometry, s.sc_dv, near_changes(s.block,
+                                                                            s.sc_dv),
+                                          dt, self.points.affine())
         return impulses
 
     def lifts(self, pair_p, geo, dt):
@@ -508,6 +510,21 @@ def on_held_box_faces(x, faces, grid):
             if grid.boundary[2 * d + side] != FREE:
                 on |= (np.abs(x[faces][:, :, d] - plane) <= tol).all(axis=1)
     return on
+
+
+def near_changes(block, dv):
+    """Per node of ``block``: whether it or a node next to it (27 about it) has a
+    velocity change in ``dv``."""
+    cube = (dv != 0.0).any(axis=1).reshape(tuple(block.shape[block.order]))
+    for axis in range(3):
+        grown = cube.copy()
+        ahead = [slice(None)] * 3
+        behind = [slice(None)] * 3
+        ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
+        grown[tuple(ahead)] |= cube[tuple(behind)]
+        grown[tuple(behind)] |= cube[tuple(ahead)]
+        cube = grown
+    return cube.ravel()
 
 
 def node_masses(state):
