@@ -37,7 +37,7 @@ def sphere(cell=1.0, extra=(), end=0.03):
         p = s.particles; b = p.body == 1
         vz = p.mass[b] @ p.v[b, 2] / p.mass[b].sum()
         zc = p.mass[b] @ p.x[b, 2] / p.mass[b].sum()
-        rec.append((s.time, vz, zc, s.energies()["total"], s.surface.last_pairs, s.surface.largest_penetration))
+        rec.append((s.time, vz, zc, s.energies()["total"], s.surface.last_pairs if s.surface else 0, s.surface.largest_penetration if s.surface else 0.0))
     t0 = time.time()
     run(sim, end, 0.5, ev)
     r = np.array(rec)

@@ -7,7 +7,11 @@ master segments (bilinear faces of FE elements), free of MPI and of the case.
   Newton, its outward unit normal and the gap;
 * ``find_pairs``: per particle its nearest segment, among those of its buckets, that it
   touches or has got behind in the step (``segment_moves``: how far each face moved);
-* ``pair_impulses``: per pair the stick impulse with Coulomb's cap (Eqs. 42-53).
+* ``pair_impulses``: per pair the stick impulse with Coulomb's cap (Eqs. 42-53);
+* the particle side on its body's grid (issue 24 Sec. 4): ``surface_nodes`` (a pair's
+  nodes between its particle and the face), ``node_pair_impulses`` (their stick
+  impulses), ``nodal_velocity_changes`` and ``take_velocity_changes`` (the nodes'
+  changes, and the particles that read them taking them), ``gather_from_nodes``.
 
 A face's nodes 0-3 sit at (xi, eta) = (-1,-1), (1,-1), (1,1), (-1,1), counter-clockwise
 seen from outside (pmpm.fem.hexahedron.FACES), so r_xi x r_eta points out of the body.
@@ -15,10 +19,15 @@ seen from outside (pmpm.fem.hexahedron.FACES), so r_xi x r_eta points out of the
 import numpy as np
 from numba import njit
 
+from .boundary import constrain_velocity
+from .shape import LINEAR, MAX_NODES, weights
+
 
 XI = np.array([-1.0, 1.0, 1.0, -1.0])
 ETA = np.array([-1.0, -1.0, 1.0, 1.0])
 NEWTON_STEPS = 25
+#: a node within this many cells beyond the particle still counts on the face's side
+FACE_SIDE_TOLERANCE = 1e-9
 
 
 @njit(cache=True)
@@ -264,3 +273,173 @@ def pair_impulses(pair_p, pair_s, pair_geo, mass, v, pbody, seg_v, seg_inv_m, se
         face_shapes(pair_geo[k, 0], pair_geo[k, 1], phi)
         pair_impulse(mass[p], v[p], seg_v[s], seg_inv_m[s], phi, pair_geo[k, 2:5],
                      friction[pbody[p], seg_body[s]], impulses[k])
+
+
+# -- the particle side on the grid (issue 24 Sec. 4) ------------------------------------
+@njit(cache=True, inline="always")
+def node_offset(x, p, origin, inv_h, shape, axes, k, e):
+    """e = (x_I - x_p) / h for the k-th node of particle p's stencil (the order of
+    pmpm.kernels.shape.weights; ``axes`` as that left it)."""
+    if shape == LINEAR:
+        a, b, c = k // 4, (k // 2) % 2, k % 2
+        t0 = (x[p, 0] - origin[0]) * inv_h
+        t1 = (x[p, 1] - origin[1]) * inv_h
+        t2 = (x[p, 2] - origin[2]) * inv_h
+        e[0] = a - (t0 - np.floor(t0))
+        e[1] = b - (t1 - np.floor(t1))
+        e[2] = c - (t2 - np.floor(t2))
+        return
+    a, b, c = k // 9, (k // 3) % 3, k % 3
+    e[0], e[1], e[2] = -axes[2, a], -axes[5, b], -axes[8, c]
+
+
+@njit(cache=True)
+def surface_nodes(x, idx, body, normals, geo, node, pair, weight):
+    """The nodes of pair k (particle p = ``idx[k]``, normal ``normals[k]`` out of the
+    face) that stand for the particle body's surface there: of the nodes the particle
+    reads (``x`` the positions the step's transfers used; ``geo`` the level's
+    GridGeometry), those no farther from the face than the particle, (x_I - x_p).n <= 0
+    (all of them when none is), with weights W_Ik = N_Ip renormalised to sum to 1 over
+    them. Fills rows (``node``, ``pair`` = k, ``weight``) and returns how many."""
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    e = np.empty(3)
+    rows = 0
+    for k in range(len(idx)):
+        p = idx[k]
+        n = normals[k]
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w)
+        side = w.copy()
+        kept = 0.0
+        for j in range(reach):
+            node_offset(x, p, origin, inv_h, shape, axes, j, e)
+            if e[0] * n[0] + e[1] * n[1] + e[2] * n[2] > FACE_SIDE_TOLERANCE:
+                side[j] = 0.0
+            kept += side[j]
+        if kept <= 0.0:                 # no node on the face's side: all of them
+            side[:reach] = w[:reach]
+            kept = 1.0
+        for j in range(reach):
+            if side[j] > 0.0:
+                node[rows], pair[rows], weight[rows] = nodes[j], k, side[j] / kept
+                rows += 1
+    return rows
+
+
+@njit(cache=True)
+def node_pair_impulses(node, pair, weight, node_mass, node_share, node_v, pair_s, geo,
+                       seg_v, seg_inv_m, friction, impulses):
+    """``impulses[r]``: the impulse of row r (node I = ``node[r]`` of pair k =
+    ``pair[r]``, weight W = ``weight[r]``) on the face point C of pair k, node I taking
+    minus it: the stick impulse (pair_impulse) between node I, lent W m_I / S_I
+    (S_I = ``node_share[I]``, the sum of W over the pairs on I), at its new velocity
+    v_I, and pair k's face, lent W of what it lends the pair (the rows of a pair
+    together take the pair's share): W times the stick impulse of m_I / S_I and the
+    pair's face. Zero where node I separates from C, is empty or rigid (m_I = 0).
+    ``geo`` (k, 6): xi, eta, n, g per pair; ``friction[k]`` its Coulomb coefficient;
+    ``seg_inv_m`` [s] what the nodes of segment ``pair_s[k]`` lend (pair_impulses)."""
+    phi, out = np.empty(4), np.empty(3)
+    for r in range(len(node)):
+        i, k, wr = node[r], pair[r], weight[r]
+        m, share = node_mass[i], node_share[i]
+        if m <= 0.0 or share <= 0.0 or wr <= 0.0:
+            impulses[r, 0] = impulses[r, 1] = impulses[r, 2] = 0.0
+            continue
+        face_shapes(geo[k, 0], geo[k, 1], phi)
+        s = pair_s[k]
+        pair_impulse(m / share, node_v[i], seg_v[s], seg_inv_m[s], phi, geo[k, 2:5],
+                     friction[k], out)
+        for d in range(3):
+            impulses[r, d] = wr * out[d]
+
+
+@njit(cache=True)
+def gather_from_nodes(x, idx, body, geo, field, out):
+    """``out[k] = sum_I N_I(x_p) field[I]``, p = ``idx[k]``: a nodal field where the
+    particle reads it."""
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    for k in range(len(idx)):
+        p = idx[k]
+        reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
+                        nodes, w)
+        for c in range(field.shape[1]):
+            out[k, c] = 0.0
+        for j in range(reach):
+            for c in range(field.shape[1]):
+                out[k, c] += w[j] * field[nodes[j], c]
+
+
+@njit(cache=True)
+def nodal_velocity_changes(nodal, impulse, gnew, faces, friction, dv):
+    """``dv[I]``: the velocity change the nodal impulse ``impulse[I]`` gives node I of
+    mass ``nodal[I, 0]``, after the grid's fixed and slip faces (applied to the node's
+    new velocity ``gnew[I, :3]`` so that walls stop only motion into them); none at
+    empty nodes and nodes that carry a rigid body (their velocity is imposed). Returns
+    whether any node changes."""
+    vec = np.empty(3)
+    moved = False
+    for n in range(len(dv)):
+        m = nodal[n, 0]
+        if nodal[n, 4] > 0.0 or m <= 0.0 or (impulse[n, 0] == 0.0 and impulse[n, 1] == 0.0
+                                             and impulse[n, 2] == 0.0):
+            dv[n, 0] = dv[n, 1] = dv[n, 2] = 0.0
+            continue
+        for d in range(3):
+            vec[d] = gnew[n, d] + impulse[n, d] / m
+        if faces[n]:
+            constrain_velocity(vec, faces[n], friction)
+        for d in range(3):
+            dv[n, d] = vec[d] - gnew[n, d]
+        moved = True
+    return moved
+
+
+@njit(cache=True)
+def take_velocity_changes(x0, x, v, body, level, rigid, want, geo, dv, near, dt,
+                          affine=None):
+    """Every deformable particle of level ``want`` takes the nodal velocity changes
+    ``dv`` as its grid-to-particle update would have: v += sum_I N_I(x0_p) dv_I and
+    x += dt times that (``x0`` the start-of-step positions the transfer used); with
+    ``affine`` (APIC) also A_p += sum_I N_I dv_I (x_I - x_p)^T / h^2 (h^2 A_p's scale,
+    as pmpm.kernels.mpm gathers it). ``near[I]``: a node within one node of a changed
+    one; a particle whose nearest node is not near reads no changed node (every shape
+    reaches at most one node beyond its nearest) and is passed over."""
+    origin, inv_h, lo, strides, marker, half_width = geo
+    shape = len(marker)
+    nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
+    e = np.empty(3)
+    for p in range(len(x)):
+        if level[p] != want or rigid[body[p]]:
+            continue
+        nearest = 0
+        for d in range(3):
+            c = np.int64(np.floor((x0[p, d] - origin[d]) * inv_h + 0.5))
+            nearest += (c - lo[d]) * strides[d]
+        if not near[nearest]:
+            continue
+        reach = weights(x0, p, origin, inv_h, lo, strides, shape, half_width[body[p]],
+                        axes, nodes, w)
+        d0 = d1 = d2 = 0.0
+        for j in range(reach):
+            n, wj = nodes[j], w[j]
+            if dv[n, 0] == 0.0 and dv[n, 1] == 0.0 and dv[n, 2] == 0.0:
+                continue
+            d0 += wj * dv[n, 0]
+            d1 += wj * dv[n, 1]
+            d2 += wj * dv[n, 2]
+            if affine is not None:
+                node_offset(x0, p, origin, inv_h, shape, axes, j, e)
+                for c in range(3):
+                    affine[p, c] += wj * dv[n, 0] * e[c] * inv_h
+                    affine[p, 3 + c] += wj * dv[n, 1] * e[c] * inv_h
+                    affine[p, 6 + c] += wj * dv[n, 2] * e[c] * inv_h
+        v[p, 0] += d0
+        v[p, 1] += d1
+        v[p, 2] += d2
+        x[p, 0] += dt * d0
+        x[p, 1] += dt * d1
+        x[p, 2] += dt * d2

@@ -94,7 +94,7 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     if mirrors:
         warm_up_mirrors(block, pairs, nodal)
     warm_up_couplings(pts, geo, block, pairs, mat, bodies, (nodal, force, gvel, gnew),
-                      (slots, view) if contact else None, couplings)
+                      (slots, view) if contact else None, couplings, affine)
     return time.perf_counter() - started
 
 

@@ -70,8 +70,9 @@ def _segments():
     return seg_x, seg_move, lo, dims, start, items
 
 
-def warm_up_surface():
-    """The particle-to-surface contact kernels (ICFEMP, pmpm.solver.surface_contact)."""
+def warm_up_surface(grid=None):
+    """The particle-to-surface contact kernels (ICFEMP, pmpm.solver.surface_contact);
+    ``grid`` = (pts, geo, block, nodal, gnew, affine): also its grid side's."""
     seg_x, seg_move, lo, dims, start, items = _segments()
     i0, f1, f2 = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3))
     touches, friction = np.zeros((1, 1), np.bool_), np.zeros((1, 1))
@@ -80,6 +81,35 @@ def warm_up_surface():
                                start, items, i0.copy(), np.zeros((0, 6)))
     surface_contact.pair_impulses(i0, i0.copy(), np.zeros((0, 6)), f1, f2, i0.copy(),
                                   seg_x, np.zeros((0, 4)), i0.copy(), friction, f2.copy())
+    if grid is not None:
+        warm_up_surface_grid(*grid)
+
+
+def warm_up_surface_grid(pts, geo, block, nodal, gnew, affine):
+    """The particle side of ICFEMP on its body's grid (issue 24 Sec. 4), with the arrays'
+    layouts the solver passes (column views of ``gnew`` and of the shares)."""
+    x, body, level = pts.x, pts.body, pts.level
+    i0, f1, f2 = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3))
+    n = len(gnew)
+    field, dv = np.zeros((n, 1)), np.zeros((n, 3))
+    surface_contact.gather_from_nodes(x, i0, body, geo, gnew[:, :3], f2.copy())
+    surface_contact.gather_from_nodes(x, i0, body, geo, dv, f2.copy())
+    surface_contact.surface_nodes(x, i0, body, f2.copy(), geo, i0.copy(), i0.copy(),
+                                  f1.copy())
+    surface_contact.node_pair_impulses(i0, i0.copy(), f1, f1.copy(), field[:, 0],
+                                       gnew[:, :3], i0.copy(), np.zeros((0, 6)),
+                                       np.zeros((0, 4, 3)), np.zeros((0, 4)), f1.copy(),
+                                       f2.copy())
+    surface_contact.nodal_velocity_changes(nodal, dv.copy(), gnew, block.faces,
+                                           block.friction, dv)
+    rigid = np.zeros(1, np.bool_)
+    near = np.zeros(n, np.bool_)
+    surface_contact.take_velocity_changes(x.copy(), x.copy(), pts.v.copy(), body, level,
+                                          rigid, 0, geo, dv, near, 1e-3, None)
+    if affine is not None:
+        surface_contact.take_velocity_changes(x.copy(), x.copy(), pts.v.copy(), body,
+                                              level, rigid, 0, geo, dv, near, 1e-3,
+                                              affine.copy())
 
 
 def warm_up_node_contact():
@@ -137,17 +167,19 @@ def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False):
                                       block.faces, counted, n, 1e-3, np.zeros((nb, 3)))
 
 
-def warm_up_couplings(pts, geo, block, pairs, mat, bodies, grids, contact_state, kinds):
+def warm_up_couplings(pts, geo, block, pairs, mat, bodies, grids, contact_state, kinds,
+                      affine=None):
     """The kernels of what ``kinds`` names (the keys of :func:`pmpm.kernels.warmup.
     kernels_of` that are true: ``fem``, ``surface``, ``node_contact``, ``fem_grid``,
     ``forces``, ``free_rigid``); ``grids`` = (nodal, force, gvel, gnew) and
-    ``contact_state`` = (slots, view) of grid contact, or None without it."""
+    ``contact_state`` = (slots, view) of grid contact, or None without it; ``affine``
+    the APIC matrices when the transfers are APIC's."""
     nodal, force, gvel, gnew = grids
     slots, view = contact_state or (None, None)
     if kinds.get("fem"):
         warm_up_elements(mat, bodies)
     if kinds.get("surface"):
-        warm_up_surface()
+        warm_up_surface((pts, geo, block, nodal, gnew, affine))
     if kinds.get("node_contact"):
         warm_up_node_contact()
     if kinds.get("fem_grid") and slots is not None:
