@@ -234,8 +234,10 @@ def table(result):
                      f"{r['particle_steps_per_s'] / 1e6:.2f} | {r['L']:.2f} | {r['D']:.2f} | "
                      f"{r['D_widest']:.2f} | {100 * r['energy_error']:+.2f} % |")
     q = result["ratios"]
-    lines += ["", f"Experiment: L = {EXPERIMENT[0]}, D = {EXPERIMENT[1]} mm (at 80 us).",
-              f"F90 default / pmpm default, whole process: "
+    lines += [""]
+    if abs(result["t_end"] - 0.08) < 1e-12:
+        lines.append(f"Experiment: L = {EXPERIMENT[0]}, D = {EXPERIMENT[1]} mm (at 80 us).")
+    lines += [f"F90 default / pmpm default, whole process: "
               f"{q['time_f90_default_over_pmpm_default']:.2f}; step loop: "
               f"{q['step_loop_f90_default_over_pmpm_default']:.2f}.",
               f"pmpm default / F90 default, particle-steps per s: "
