@@ -8,17 +8,18 @@ nodes where a hat touches 8). The costs below were measured once, on one rank, w
 ``scripts/element_weights.py``: the same copper block (Johnson-Cook + Mie-Grueneisen +
 bulk viscosity, 190 m/s onto a slip wall) as 125,000 particles with each shape function
 and as 125,000 hexahedra with each formulation, the variants interleaved, medians of 3
-repeats (the project's 2-core x86_64 machine, quiet, 2026-12-04 00:53-01:00 UTC, code of
-commit 871fff6, after the 27-node kernels' speed-up of issue 25; docs/performance-notes.md
-"Elements in the rebalance (issue 24)"). The weights they give:
+repeats (the project's 2-core x86_64 machine, 2026-12-04 04:45-04:52 UTC with one other
+job on the second core, samples within 5 % of their medians; after the FEM element step's
+1.7-fold speed-up of issue 25, which cut the element weights by about 40 %;
+docs/performance-notes.md "Elements in the rebalance (issue 24)"). The weights they give:
 
 =================  ======  =====  =======
 element            linear  gimp   bspline
 =================  ======  =====  =======
-reduced, viscous   3.75    2      2.5
-reduced, stiffness 3.75    2      2.25
-assumed_strain     4.25    2.25   2.75
-rigid              0.5     0.25   0.25
+reduced, viscous   2.25    1.25   1.25
+reduced, stiffness 2.25    1.25   1.25
+assumed_strain     2.75    1.5    1.75
+rigid              0.25    0.25   0.25
 =================  ======  =====  =======
 
 A rigid FEM body's elements are not stepped (pmpm.fem.elements skips them); its nodes
@@ -34,12 +35,12 @@ summation, over any number of ranks.
 import numpy as np
 
 #: seconds per particle-step by shape function (scripts/element_weights.py, medians of 3;
-#: measured on a quiet machine, load below 1: samples within 2 % of their median)
-PARTICLE_STEP_S = {"linear": 0.267e-6, "gimp": 0.502e-6, "bspline": 0.428e-6}
+#: one other job on the second core: samples within 5 % of their median)
+PARTICLE_STEP_S = {"linear": 0.273e-6, "gimp": 0.528e-6, "bspline": 0.453e-6}
 #: seconds per element-step by element formulation (the same runs): the reduced element
 #: with viscous or stiffness hourglass control, the assumed-strain element, a rigid body
-ELEMENT_STEP_S = {"reduced_viscous": 1.018e-6, "reduced_stiffness": 1.016e-6,
-                  "assumed_strain": 1.165e-6, "rigid": 0.123e-6}
+ELEMENT_STEP_S = {"reduced_viscous": 0.615e-6, "reduced_stiffness": 0.610e-6,
+                  "assumed_strain": 0.742e-6, "rigid": 0.045e-6}
 #: the resolution of the weights (see the module's docstring)
 QUANTUM = 0.25
 
