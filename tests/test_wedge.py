@@ -81,10 +81,9 @@ def test_the_wedge_slows_and_keeps_the_water_out(surface_run):
     Karman's momentum balance (5.69; 5.85, +2.8 %, before the particle side of surface
     contact met the faces on its grid; the full-resolution run, 20 mm cells and R = 1.6,
     is 1.1 % below the balance at 17 ms: docs/validation/wedge_entry.md); no water
-    particle centre gets
-    deeper than a quarter of the spacing into the wedge (centres a fraction of a
-    millimetre inside are the contact's own tolerance: it closes half of such a depth a
-    step); the wedge only translates along y."""
+    particle centre gets deeper than a quarter of the spacing into the wedge (centres a
+    fraction of a millimetre inside are the contact's own tolerance: it closes half of
+    such a depth a step); the wedge only translates along y."""
     sim, inside = surface_run
     assert wedge_speed(sim) == pytest.approx(von_karman_speed(), rel=TO_VON_KARMAN)
     assert wedge_speed(sim) < 0.95 * FREE_FALL
