@@ -4,8 +4,10 @@
 
 * ``node_rs``: node-to-surface impulses with the rod's nodes as slaves on plate faces,
 * ``node_pm``: node-to-surface impulses with the plate's nodes as slaves on rod faces,
-* ``icfemp``: ICFEMP impulses between particles and faces (converted plate particles on
-  the rod's faces, converted rod particles on the plate's faces),
+* ``icfemp``: particle-to-surface contact (ICFEMP: converted plate particles on the
+  rod's faces, converted rod particles on the plate's faces), as the rod's change of
+  momentum across the coupling (its grid side moves every particle of a node at a face,
+  so its impulses are not one pair's),
 * ``grid``: the rest (particles meeting particles on the grid; internal forces and the
   conversions keep the rod's momentum).
 
@@ -73,8 +75,7 @@ def kinetic_energy():
 
 def wrap_kernels():
     from pmpm.kernels import node_contact as knc
-    from pmpm.kernels import surface_contact as ksc
-    node_impulses, pair_impulses = knc.node_pair_impulses, ksc.pair_impulses
+    node_impulses = knc.node_pair_impulses
 
     def node_pair_impulses(pair_n, pair_s, geo, lent, v, node_body, seg_v, seg_inv_m,
                            seg_body, friction, dt, impulses, depth):
@@ -91,16 +92,7 @@ def wrap_kernels():
         BUDGET.sums["node_rs_shank"] += float(-impulses[rod_slave & behind, 2].sum())
         BUDGET.sums["node_pm"] += float(impulses[rod_face, 2].sum())
 
-    def pair_impulses_(pair_p, pair_s, geo, mass, v, body, seg_v, lent, seg_body,
-                       friction, impulses):
-        pair_impulses(pair_p, pair_s, geo, mass, v, body, seg_v, lent, seg_body,
-                      friction, impulses)
-        on_rod_face = seg_body[pair_s] == ROD
-        rod_particle = body[pair_p] == ROD
-        BUDGET.sums["icfemp"] += float(impulses[on_rod_face, 2].sum()
-                                       - impulses[rod_particle, 2].sum())
-
-    knc.node_pair_impulses, ksc.pair_impulses = node_pair_impulses, pair_impulses_
+    knc.node_pair_impulses = node_pair_impulses
 
 
 def wrap_couplings():
@@ -118,9 +110,10 @@ def wrap_couplings():
 
     def surface_after(self, dt):
         BUDGET.fem, BUDGET.points = self.elements, self.points
-        before = kinetic_energy()
+        before, (_, p0) = kinetic_energy(), BUDGET.rod_momentum()
         surface_step(self, dt)
         BUDGET.sums["icfemp_loss"] += before - kinetic_energy()
+        BUDGET.sums["icfemp"] += BUDGET.rod_momentum()[1] - p0
 
     NodeContact.after_update_points, SurfaceContact.after_update_points = node_after, surface_after
     step, transfer = Stepper.step, Conversion.transfer
