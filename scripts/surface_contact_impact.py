@@ -4,6 +4,12 @@ docs/validation/surface_contact_impact.md.
     python scripts/surface_contact_impact.py sphere 1.0     # or 0.5; bar 0.5 [--set-like KEY=VALUE ...]
 
 Prints one JSON line (sphere: peak force, contact time against Hertz, rebound, energy;
+the largest fall of the sphere's centre (``centre_drop``; Hertz's approach 0.274 mm) and
+of the block's top under it (``top_drop``; Hertz: half the approach), and how far the
+lowest layer of the sphere's particles closed on the block's top over the run
+(``closing``: the particle centres' gap to the block's surface, FE top node or top
+particle plus its half spacing, at the start less its smallest; 0 when the contact holds
+them at their half spacing, > 0 when they sink into the block);
 bar: stress plateau / (rho c v / 2), pulse length / 2 Ls, striker stop time / (2 Ls / c),
 final striker speed / v0, energy)."""
 import os, sys, time, json
@@ -33,11 +39,16 @@ def sphere(cell=1.0, extra=(), end=0.03):
     sph = p.body == 1
     rec = []
     e0 = sim.energies()["total"]
+    lowest = block_surface = None
     def ev(s):
+        nonlocal lowest, block_surface
         p = s.particles; b = p.body == 1
+        if lowest is None:
+            lowest, block_surface = lowest_layer(s), top_under_axis(s)
         vz = p.mass[b] @ p.v[b, 2] / p.mass[b].sum()
         zc = p.mass[b] @ p.x[b, 2] / p.mass[b].sum()
-        rec.append((s.time, vz, zc, s.energies()["total"], s.surface.last_pairs if s.surface else 0, s.surface.largest_penetration if s.surface else 0.0))
+        rec.append((s.time, vz, zc, s.energies()["total"], s.surface.last_pairs if s.surface else 0, s.surface.largest_penetration if s.surface else 0.0,
+                    block_surface(s), p.x[lowest, 2].mean()))
     t0 = time.time()
     run(sim, end, 0.5, ev)
     r = np.array(rec)
@@ -55,8 +66,36 @@ def sphere(cell=1.0, extra=(), end=0.03):
     from pmpm.post.hertz import hertz_share_above
     out = dict(cell=cell, force=f.max() / F - 1, contact_time=ct / (tc * hertz_share_above(0.02)) - 1,
                rebound=-vz[-1] / vz[0], energy=r[-1, 3] / e0 - 1, min_energy=r[:, 3].min() / e0 - 1,
-               maxpen=r[:, 5].max(), wall=time.time() - t0, steps=len(r))
+               maxpen=r[:, 5].max(), wall=time.time() - t0, steps=len(r),
+               centre_drop=float(r[0, 2] - r[:, 2].min() + v * r[0, 0]),
+               top_drop=float(r[0, 6] - r[:, 6].min()),
+               closing=float((r[0, 7] - r[0, 6]) - (r[:, 7] - r[:, 6]).min()))
     return out, r
+
+def lowest_layer(sim):
+    """The sphere's particles of its lowest layer (within a quarter spacing of the
+    lowest) near the axis (within a cell of it)."""
+    p = sim.particles
+    b = np.flatnonzero(p.body == 1)
+    z = p.x[b, 2]
+    near = (np.hypot(p.x[b, 0], p.x[b, 1]) < sim.grid.h) & \
+        (z < z.min() + 0.25 * np.cbrt(p.vol0[b]))
+    return b[near]
+
+def top_under_axis(sim):
+    """A function of the simulation: the height of the block's top surface on the axis
+    (FE: the top node there; particles: the highest particle within a cell of the axis
+    plus its half spacing)."""
+    fem = sim.elements
+    if fem is not None and len(getattr(fem, "x", ())):
+        node = int(np.argmin(np.linalg.norm(fem.x - [0.0, 0.0, fem.x[:, 2].max()], axis=1)))
+        return lambda s: s.elements.x[node, 2]
+    p = sim.particles
+    b = np.flatnonzero(p.body == 0)
+    b = b[np.hypot(p.x[b, 0], p.x[b, 1]) < sim.grid.h]
+    top = b[np.argmax(p.x[b, 2])]
+    half = 0.5 * np.cbrt(p.vol0[top])
+    return lambda s: s.particles.x[top, 2] + half
 
 def bar(cell=0.5, extra=(), end=0.012, t_profile=0.008):
     sim, cfg = simulation("striker_on_fem_bar.yaml", [f"params.cell={cell}"] + list(extra))
