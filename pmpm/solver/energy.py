@@ -137,12 +137,6 @@ class EnergyWatch:
             self.warned_loss = state.get("warned_loss", False)
 
 
-def gravitational_potential(world, particles, gravity):
-    """-sum m g.x over all ranks."""
-    local = -float(particles.mass @ (particles.x @ np.asarray(gravity, np.float64)))
-    return world.sum(local)
-
-
 def load_power(particles, load_vectors):
     """sum over loaded particles of scale * load . v (this rank's part)."""
     loaded = particles.load >= 0

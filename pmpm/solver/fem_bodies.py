@@ -45,6 +45,7 @@ from ..materials.state import MaterialState, with_later_columns
 from .bodies import initial_field
 from .errors import SetupError
 from .fem_partition import element_owners, partition_mesh, shared_with
+from .kinds import BodyKind
 from .work_weights import body_weights
 
 FAULTS = {NON_POSITIVE_VOLUME: "non-positive volume (inverted or collapsed element)",
@@ -52,7 +53,7 @@ FAULTS = {NON_POSITIVE_VOLUME: "non-positive volume (inverted or collapsed eleme
                          "non-positive density)"}
 
 
-class FemBodies:
+class FemBodies(BodyKind):
     """This rank's elements (those whose centroid lies in its slab) and their nodes, of
     every FEM body, concatenated; nodes that elements of other ranks use too are shared
     (their forces are summed over the sharers) and counted by the lowest sharer.
@@ -68,6 +69,7 @@ class FemBodies:
     """
 
     label = "element"
+    owns_nodes = rebalances = True
 
     def __init__(self, meshes, config, table, world, grid, slabs):
         self.take_config(config, table, world)
@@ -360,6 +362,12 @@ class FemBodies:
         names with their body's velocity (pmpm.solver.rigid_motion)."""
         return self.materials.rigid[self.node_body]
 
+    def advance_nodes(self, dt):
+        """Element stresses and nodal forces, then the nodes' trial velocities (before
+        the grid's forces are summed: grid coupling puts them on the grid)."""
+        self.stress_and_forces(dt)
+        self.integrate(dt)
+
     def integrate(self, dt):
         """v <- v + dt f / m with the constraints and the grid faces' conditions, and
         the reactions of both to the force log, in one pass over the nodes
@@ -425,7 +433,7 @@ class FemBodies:
         hourglass = float(self.hourglass.energy.sum()) + self.converted_hourglass
         return kinetic, internal, hourglass
 
-    def body_stats(self):
+    def body_stats(self, world):
         """Per FEM body name, over all ranks (collective): mass, counts, centroid,
         velocity, bbox, energies (the plastic work among them) and failed elements."""
         nb = len(self.names)
@@ -441,8 +449,14 @@ class FemBodies:
                        np.count_nonzero(self.state.damage[elems] >= 1.0)]
             if nodes.any():
                 box[b, :3], box[b, 3:] = -x.min(axis=0), x.max(axis=0)
-        sums, box = self.world.sum(sums), self.world.max(box)
+        sums, box = world.sum(sums), world.max(box)
         return {self.names[b]: body_entry(sums[b], box[b]) for b in self.body_indices}
+
+    def take_loads(self, vectors):
+        self.load_vectors = vectors
+
+    def element_count(self):
+        return self.n_elements
 
     def potential(self, gravity):
         m, x = self.mass[self.owned], self.x[self.owned]

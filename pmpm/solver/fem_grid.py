@@ -62,10 +62,11 @@ from ..kernels import mpm, tied
 from ..kernels.records import PointState
 from .contact import GRID_COUPLING, SURFACE_COUPLING, GridContact
 from .errors import SetupError
+from .kinds import BodyKind
 from .workspace import Workspace
 
 
-class FemGridNodes:
+class FemGridNodes(BodyKind):
     """The FE nodes of the grid-coupled FEM bodies as points of the coarse grid.
 
     Parameters
@@ -80,6 +81,7 @@ class FemGridNodes:
     """
 
     label = "FE node"
+    on_grid = True
 
     def __init__(self, elements, contact, decomposition, grid, bodies, coupled, m_tiny):
         self.elements, self.contact = elements, contact

@@ -2,12 +2,12 @@
 import numpy as np
 
 
-def energies(world, particles):
+def particle_energies(particles):
+    """(kinetic, internal) energy of these particles (this rank's)."""
     p = particles
     kinetic = 0.5 * float(np.sum(p.mass * np.einsum("ij,ij->i", p.v, p.v)))
     internal = float(np.sum(p.mass * p.e_int))
-    kinetic, internal = world.sum(np.array([kinetic, internal]))
-    return {"kinetic": kinetic, "internal": internal, "total": kinetic + internal}
+    return kinetic, internal
 
 
 def body_stats(world, particles, names):

@@ -11,10 +11,13 @@ from ..kernels import mpm, tied
 from ..kernels.records import BodyMaterials, ExternalLoads, PointState
 from ..grid import window_bounds
 from ..particles.split import split
+from .energy import load_power
+from .kinds import BodyKind
+from .observe import body_stats, particle_energies
 from .workspace import Workspace
 
 
-class ParticleBodies:
+class ParticleBodies(BodyKind):
     """The particles this rank owns, with the per-body tables the kernels index.
 
     Parameters
@@ -29,6 +32,7 @@ class ParticleBodies:
     """
 
     label = "particle"
+    on_grid = follows_slabs = True
 
     def __init__(self, particles, bodies, gravity, pic=0.0, transfer="flip"):
         self.particles, self.bodies = particles, bodies
@@ -151,6 +155,23 @@ class ParticleBodies:
             p = self.particles
             self.fault = (f"particle id {int(p.id[bad])} of body "
                           f"'{self.bodies.names[int(p.body[bad])]}': {what}")
+
+    # -- outputs (pmpm.solver.kinds.BodyKind) ------------------------------------------
+    def take_loads(self, vectors):
+        self.load_vectors = vectors
+
+    def energies(self):
+        return (*particle_energies(self.particles), 0.0)
+
+    def body_stats(self, world):
+        return body_stats(world, self.particles, self.bodies.names)
+
+    def potential(self, gravity):
+        p = self.particles
+        return -float(p.mass @ (p.x @ np.asarray(gravity, np.float64)))
+
+    def load_power(self, vectors):
+        return load_power(self.particles, vectors)
 
     # -- ownership ---------------------------------------------------------------------
     def classify(self, grid, slabs, owner):

@@ -30,13 +30,13 @@ class ModifiedUpdateStressLast:
         step.nodal_velocities()
         step.nodal_forces(dt)
         step.integrate(dt)
-        step.for_each_kind("remember_start_positions")
+        step.ask_moving_kinds("remember_start_positions")
         step.update_points(dt)
-        step.for_each_kind("back_to_start_positions")
+        step.ask_moving_kinds("back_to_start_positions")
         step.map_to_grid()
         step.nodal_velocities()
         step.update_stresses(dt)
-        step.for_each_kind("on_to_moved_positions")
+        step.ask_moving_kinds("on_to_moved_positions")
 
 
 SCHEMES = {scheme.name: scheme for scheme in (UpdateStressFirst, ModifiedUpdateStressLast)}

@@ -12,14 +12,12 @@ from .contact import SURFACE_COUPLING, ContactRules, GridContact, start_shares
 from .conversion import ID_STRIDE, Conversion, ConversionRules
 from .couplings import TiedInterface
 from .decomposition import Decomposition, slab_min_width
-from .energy import gravitational_potential, load_power
 from .errors import SetupError
 from .fem_bodies import FemBodies, build_meshes
 from .fem_grid import grid_coupled_nodes
 from .forces import ForceLog
 from .levels import Hierarchy
 from .node_contact import NodeContact, check_node_contact, node_contact_pairs
-from .observe import body_stats, energies
 from .particle_bodies import ParticleBodies
 from .refine import Refiner
 from .schemes import make_scheme
@@ -98,9 +96,10 @@ class Simulation:
             if converting else None
         self.force_log = self.log_forces(config, couplings, m_tiny) \
             if config.output.forces else None
-        self.stepper = Stepper(self.decomposition, self.grids, self.kinds, couplings,
-                               make_scheme(config.time.scheme),
-                               self.refiner, m_tiny, [elements] if elements else [], nodes,
+        #: every body kind, in the order their parts are summed (solver.kinds)
+        self.all_kinds = [self.points] + ([elements] if elements else []) + list(nodes)
+        self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds, couplings,
+                               make_scheme(config.time.scheme), self.refiner, m_tiny,
                                [self.conversion] if self.conversion else [])
         self.decomposition.update_cell_ranges(self.kinds)
         self.loads = config.loads
@@ -211,9 +210,9 @@ class Simulation:
     # -- what the run loop asks --------------------------------------------------------
     def advance(self, dt):
         """One step of ``dt`` from ``time``, the loads at the step's mid-time."""
-        self.points.load_vectors = self.load_vectors(self.time + 0.5 * dt)
-        if self.elements:
-            self.elements.load_vectors = self.points.load_vectors
+        vectors = self.load_vectors(self.time + 0.5 * dt)
+        for kind in self.all_kinds:
+            kind.take_loads(vectors)
         self.stepper.step(dt)
         self.time += dt
         self.step_count += 1
@@ -238,20 +237,22 @@ class Simulation:
     def rebalance(self, threshold):
         """Rebalance the slabs; FEM elements whose centroid left their rank's slab
         migrate."""
-        if not self.elements:
-            return self.decomposition.rebalance(threshold, self.kinds)
-        result = self.decomposition.rebalance(threshold, self.kinds, [self.elements])
-        if self.elements.migrate(self.grid, self.slabs):
+        result = self.decomposition.rebalance(threshold, self.kinds, self.rebalancing())
+        moved = [kind.migrate(self.grid, self.slabs) for kind in self.rebalancing()]
+        if any(moved):
             for contact in (self.surface, self.node_contact):
                 if contact:
                     contact.refresh_faces()   # the faces of the elements now held here
         return result
 
+    def rebalancing(self):
+        """The kinds that move to the new slabs when they are rebalanced (elements)."""
+        return [kind for kind in self.all_kinds if kind.rebalances]
+
     def imbalance(self):
         """The weighted imbalance of the slabs now: max/mean - 1 over the ranks of the
         particles plus the elements' weights each slab holds (collective)."""
-        return self.decomposition.imbalance(self.kinds + ([self.elements] if self.elements
-                                                          else []))
+        return self.decomposition.imbalance(self.kinds + self.rebalancing())
 
     def restart_state(self):
         """What a checkpoint keeps beyond the points' columns (collective: the deepest
@@ -304,40 +305,37 @@ class Simulation:
 
     def energies(self):
         """Kinetic, internal (the elements' hourglass energy included) and total energy
-        over all ranks; with FEM bodies also ``hourglass`` on its own."""
-        e = energies(self.world, self.particles)
-        if not self.elements:
-            return e
-        kinetic, internal, hourglass = self.world.sum(np.array(self.elements.energies()))
-        e["kinetic"] += kinetic
-        e["internal"] += internal + hourglass
-        e["total"] = e["kinetic"] + e["internal"]
-        e["hourglass"] = hourglass
+        over all ranks and body kinds; with FEM bodies also ``hourglass`` on its own."""
+        kinetic = internal = hourglass = 0.0
+        for kind in self.all_kinds:
+            k, i, h = self.world.sum(np.array(kind.energies(), np.float64))
+            kinetic, internal, hourglass = kinetic + k, internal + (i + h), hourglass + h
+        e = {"kinetic": kinetic, "internal": internal, "total": kinetic + internal}
+        if self.elements:
+            e["hourglass"] = hourglass
         return e
 
     def body_stats(self):
-        """Per body the run contract's values (an FEM body's from its nodes, with its
-        element and node counts and energies)."""
-        stats = body_stats(self.world, self.particles, self.bodies.names)
-        if self.elements:
-            for name, entry in self.elements.body_stats().items():
-                stats[name] = merged_stats(entry, stats[name])
+        """Per body the run contract's values, each kind's entry joined to those of the
+        kinds before it (an FEM body's from its nodes, with its element and node counts
+        and energies, and the particles its elements became)."""
+        stats = {}
+        for kind in self.all_kinds:
+            for name, entry in kind.body_stats(self.world).items():
+                stats[name] = merged_stats(entry, stats[name]) if name in stats else entry
         return stats
 
     def gravitational_potential(self, gravity):
-        potential = gravitational_potential(self.world, self.particles, gravity)
-        if self.elements:
-            potential += self.world.sum(self.elements.potential(gravity))
-        return potential
+        """-sum m g.x over all ranks and body kinds."""
+        return sum(self.world.sum(kind.potential(gravity)) for kind in self.all_kinds)
 
     def load_power(self, vectors):
         """This rank's power of the loads at ``vectors`` (particles and FE nodes)."""
-        power = load_power(self.particles, vectors)
-        return power + (self.elements.load_power(vectors) if self.elements else 0.0)
+        return sum(kind.load_power(vectors) for kind in self.all_kinds)
 
     @property
     def n_elements(self):
-        return self.world.sum(self.elements.n_elements if self.elements else 0)
+        return self.world.sum(sum(kind.element_count() for kind in self.all_kinds))
 
     def load_vectors(self, time):
         """Load vector of every load at ``time`` (value times its time function)."""

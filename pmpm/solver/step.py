@@ -19,45 +19,44 @@ class Stepper:
     ----------
     decomposition : solver.decomposition.Decomposition   slabs, cell ranges, migration
     grids : solver.levels.Hierarchy   the coarse grid and the windows on this rank
-    kinds : list of body kinds   (today: solver.particle_bodies.ParticleBodies)
+    kinds : list of solver.kinds.BodyKind   every body kind of the run, in the order their
+        parts are summed; each is asked for what its capabilities declare: ``on_grid``
+        (particles, grid-coupled FE nodes) in the grid phases, ``owns_nodes`` (FEM bodies)
+        for their stresses, forces and trial velocities before the grid's forces are
+        summed and their positions when the points move, ``follows_slabs`` (particles)
+        for grid levels, migration and splitting
     couplings : list of solver.couplings.Coupling   (tied interface, grid contact)
     scheme : a scheme of pmpm.solver.schemes
     refiner : solver.refine.Refiner   windows that move, particles that split
     m_tiny : float   nodal mass below which a node counts as empty
-    element_kinds : list of kinds with their own nodes (solver.fem_bodies.FemBodies):
-        stresses, forces and trial velocities before the grid's forces are summed,
-        positions when the points move; met by particles through the grid (node_kinds)
-        or through couplings (surface contact)
-    node_kinds : list of kinds that put element nodes on the grid as points
-        (solver.fem_grid.FemGridNodes, grid coupling): asked in the grid phases like
-        ``kinds``, but they neither migrate nor split
     transfers : list of objects whose ``transfer()`` moves material from one kind to
         another once the points have moved (solver.conversion.Conversion: elements into
         particles), before windows split particles and points migrate
     """
 
     def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny,
-                 element_kinds=(), node_kinds=(), transfers=()):
+                 transfers=()):
         self.decomposition, self.grids = decomposition, grids
         self.kinds, self.couplings = list(kinds), list(couplings)
+        self.grid_kinds = [k for k in self.kinds if k.on_grid]
+        self.node_kinds = [k for k in self.kinds if k.owns_nodes]
+        self.moving_kinds = [k for k in self.kinds if k.follows_slabs]
         self.transfers = list(transfers)
         self.scheme, self.refiner, self.m_tiny = scheme, refiner, m_tiny
-        self.element_kinds = list(element_kinds)
-        self.grid_kinds = self.kinds + list(node_kinds)
         self.fastest = 0.0
 
     def step(self, dt):
-        for kind in self.kinds + self.element_kinds:
+        for kind in self.kinds:
             kind.fault = None
-        self.decomposition.assign_levels(self.kinds)
+        self.decomposition.assign_levels(self.moving_kinds)
         self.decomposition.build_blocks()
         self.scheme.advance(self, dt)
         for transfer in self.transfers:
             transfer.transfer()
         self.refiner.move_windows_and_split()
-        fault = next((k.fault for k in self.kinds + self.element_kinds if k.fault), None)
-        fastest = max([self.fastest] + [k.speed for k in self.element_kinds])
-        self.fastest = self.decomposition.finish_step(self.kinds, fastest, fault)
+        fault = next((k.fault for k in self.kinds if k.fault), None)
+        fastest = max([self.fastest] + [k.speed for k in self.node_kinds])
+        self.fastest = self.decomposition.finish_step(self.moving_kinds, fastest, fault)
 
     # -- the phases --------------------------------------------------------------------
     def map_to_grid(self):
@@ -101,9 +100,8 @@ class Stepper:
         """Central differences on the FE nodes, from the nodes alone: element stresses,
         nodal forces and trial velocities (seed 004 notes Sec. 1.5 step 4), before the
         grid's forces are summed so that grid coupling can put them on the grid."""
-        for kind in self.element_kinds:
-            kind.stress_and_forces(dt)
-            kind.integrate(dt)
+        for kind in self.node_kinds:
+            kind.advance_nodes(dt)
 
     def complete_forces(self):
         self.ask_couplings("after_forces", self.grids)
@@ -130,7 +128,7 @@ class Stepper:
         for s in self.grids:
             for kind in self.grid_kinds:
                 kind.grid_to_points(s, dt, self.view(s))
-        for kind in self.element_kinds:
+        for kind in self.node_kinds:
             kind.move(dt)
         self.ask_couplings("after_update_points", dt)
 
@@ -162,6 +160,8 @@ class Stepper:
                 return view
         return None
 
-    def for_each_kind(self, method):
-        for kind in self.kinds:
+    def ask_moving_kinds(self, method):
+        """``method()`` of every kind whose points follow the slabs (MUSL's returns to
+        the start-of-step positions)."""
+        for kind in self.moving_kinds:
             getattr(kind, method)()
