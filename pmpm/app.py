@@ -330,7 +330,7 @@ def read_fem_groups(path, config):
     """({name: rows} of the elements and nodes of the checkpoint, when the case has FEM
     bodies, or {}; the problem line when it holds none). Not collective."""
     from .io import load_group
-    if not any(body.method == "fem" for body in config.bodies):
+    if not any(body.is_fem for body in config.bodies):
         return {}, None
     groups = {name: load_group(path, name) for name in ("elements", "nodes")}
     if any(group is None for group in groups.values()):

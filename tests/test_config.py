@@ -147,3 +147,37 @@ def test_a_record_whose_attributes_drift_from_the_schema_is_refused():
         class Drifted:
             end: float
             cfl: float
+
+
+def test_fem_and_rigid_parts_are_records():
+    """An FEM body's ``fem`` is a FemConfig (its ``convert`` and ``constraints``
+    records, absent criteria None), a particle body's None; ``rigid`` a RigidConfig."""
+    bodies = [dict(PLAIN["bodies"][0], method="fem",
+                   fem={"element_size": 2.0, "hourglass": "viscous",
+                        "convert": {"eps_p": 0.9},
+                        "constraints": [{"region": {"min": [0, 0, 0], "max": [10, 10, 1.5]},
+                                         "fix": ["z"]}]}),
+              PLAIN["bodies"][1]]
+    fem_body, particle_body = config_of(bodies=bodies).bodies
+    assert fem_body.is_fem and not particle_body.is_fem
+    assert particle_body.fem is None and particle_body.convert is None
+    fem = fem_body.fem
+    assert (fem.element_size, fem.element, fem.hourglass) == (2.0, "reduced", "viscous")
+    assert fem.hourglass_coefficient == 0.1                       # the schema's default
+    assert fem_body.convert is fem.convert
+    assert (fem.convert.eps_p, fem.convert.volume_ratio, fem.convert.step_ratio,
+            fem.convert.particles_per_direction) == (0.9, None, None, 2)
+    (held,) = fem.constraints
+    assert held.fix == ("z",) and held.node_set is None and held.region["max"][2] == 1.5
+    assert fem_body.rigid.free == () and fem_body.free_axes == ()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fem.element_size = 1.0
+    assert pickle.loads(pickle.dumps(fem_body)) == fem_body
+
+
+def test_a_wrong_fem_key_is_still_refused_naming_it():
+    bodies = [dict(PLAIN["bodies"][0], method="fem",
+                   fem={"element_size": 2.0, "convert": {"eps_q": 0.9}})]
+    with pytest.raises(Exception) as error:
+        config_of(bodies=bodies)
+    assert "bodies[0].fem.convert" in str(error.value) and "eps_q" in str(error.value)

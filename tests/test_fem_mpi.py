@@ -68,7 +68,7 @@ def test_a_checkpoint_group_failing_on_one_rank_stops_every_rank(monkeypatch):
 
     monkeypatch.setattr(pmpm.io, "load_checkpoint", lambda path, comm: ({}, {}))
     monkeypatch.setattr(pmpm.io, "load_group", load_group)
-    config = SimpleNamespace(bodies=[SimpleNamespace(method="fem")])
+    config = SimpleNamespace(bodies=[SimpleNamespace(is_fem=True)])
     with pytest.raises(InputError) as error:
         read_checkpoint(world, "ck.h5", config)
     assert error.value.problems == ["--restart: cannot read checkpoint 'ck.h5': "

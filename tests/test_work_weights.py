@@ -18,7 +18,8 @@ BESIDE = ["decomposition.axis=x", "params.x_plate=0.14", "params.element=0.02",
 
 
 def fem(element="reduced", hourglass="viscous"):
-    return {"element": element, "hourglass": hourglass}
+    """The part of a pmpm.case.FemConfig the weights read."""
+    return SimpleNamespace(element=element, hourglass=hourglass)
 
 
 @pytest.mark.parametrize("shape", sorted(ww.PARTICLE_STEP_S))
@@ -48,10 +49,10 @@ def test_an_element_weighs_less_against_the_dearer_27_node_particles():
 
 
 def test_body_weights_count_a_particle_body_one():
-    bodies = [SimpleNamespace(method="particles", fem=None),
-              SimpleNamespace(method="fem", fem=fem()),
-              SimpleNamespace(method="fem", fem=fem()),
-              SimpleNamespace(method="particles", fem=None)]
+    bodies = [SimpleNamespace(is_fem=False, fem=None),
+              SimpleNamespace(is_fem=True, fem=fem()),
+              SimpleNamespace(is_fem=True, fem=fem()),
+              SimpleNamespace(is_fem=False, fem=None)]
     config = SimpleNamespace(bodies=bodies, grid=SimpleNamespace(shape_functions="linear"))
     w = ww.body_weights(config, np.array([False, False, True, True]))
     assert w[0] == 1.0 and w[3] == 1.0          # a rigid particle body still counts 1
@@ -120,8 +121,8 @@ def test_a_restart_on_more_ranks_cuts_from_the_weighted_elements_too():
     groups = {"nodes": {"node_id": node_id[rows], "x": x[rows]},
               "elements": {"hexes": np.array([node_id[:8], node_id[8:]]),
                            "body": np.array([1, 1])}}
-    config = SimpleNamespace(bodies=[SimpleNamespace(method="particles", fem=None),
-                                     SimpleNamespace(method="fem", fem=fem())],
+    config = SimpleNamespace(bodies=[SimpleNamespace(is_fem=False, fem=None),
+                                     SimpleNamespace(is_fem=True, fem=fem())],
                              grid=SimpleNamespace(shape_functions="linear"))
     world = SimpleNamespace(sum=lambda h: h)
     particles = SimpleNamespace(x=np.array([[0.5, 0.5, 0.5], [0.2, 0.5, 0.5]]))

@@ -13,12 +13,15 @@ from dataclasses import dataclass
 
 from .bodies import BODY
 from .contact import CONTACT, PAIR
+from .fem import CONSTRAINT, CONVERT, FEM
 from .fields import unwrap
+from .rigid import RIGID
 from .schema import (DECOMPOSITION, FACES, GRID, LOAD, OUTPUT, REGION, TIME, TOP_LEVEL,
                      read_time_function)
 from .windows import WINDOW
 
-__all__ = ["BodyConfig", "CaseConfig", "ContactConfig", "DecompositionConfig", "FACES",
+__all__ = ["BodyConfig", "CaseConfig", "ConstraintConfig", "ContactConfig", "ConvertConfig",
+           "DecompositionConfig", "FACES", "FemConfig", "RigidConfig",
            "GridConfig", "LoadConfig", "OutputConfig", "PairConfig", "ReadOnlyDict",
            "RegionConfig", "TimeConfig", "TimeFunctionConfig", "WindowConfig", "frozen",
            "thawed"]
@@ -249,11 +252,62 @@ class LoadConfig:
                       time_function=record(TimeFunctionConfig, load["time_function"]))
 
 
+@mirrors(CONVERT)
+@dataclass(frozen=True)
+class ConvertConfig:
+    """When an FEM body's elements turn into particles (``bodies[i].fem.convert``); a
+    criterion left out is None."""
+    eps_p: float | None
+    volume_ratio: float | None
+    step_ratio: float | None
+    particles_per_direction: int
+
+
+@mirrors(CONSTRAINT)
+@dataclass(frozen=True)
+class ConstraintConfig:
+    """Velocity components held at zero on some nodes of an FEM body
+    (``bodies[i].fem.constraints[j]``): ``region`` or ``node_set`` chooses them."""
+    region: ReadOnlyDict | None
+    node_set: str | None
+    fix: tuple
+
+
+@mirrors(FEM)
+@dataclass(frozen=True)
+class FemConfig:
+    """An FEM body's mesh and elements (``bodies[i].fem``, completed by the schema:
+    ``element_size`` and the hourglass defaults filled in); ``convert`` None: elements
+    never convert; ``hourglass`` and ``hourglass_coefficient`` None for the
+    ``assumed_strain`` element."""
+    convert: ConvertConfig | None
+    element_size: float
+    element: str
+    hourglass: str | None
+    hourglass_coefficient: float | None
+    constraints: tuple
+
+    @classmethod
+    def from_case(cls, fem):
+        convert = fem.get("convert")
+        return record(cls, fem,
+                      convert=record(ConvertConfig, convert) if convert else None,
+                      constraints=tuple(record(ConstraintConfig, c)
+                                        for c in fem.get("constraints") or ()))
+
+
+@mirrors(RIGID)
+@dataclass(frozen=True)
+class RigidConfig:
+    """The motion of a body of a ``rigid`` material (``bodies[i].rigid``)."""
+    free: tuple
+
+
 @mirrors(BODY.fields)
 @dataclass(frozen=True)
 class BodyConfig:
-    """A body filled with particles (``bodies[i]``); ``geometry`` is the validated
-    geometry mapping, read-only (its keys depend on its type: see the reference)."""
+    """A body (``bodies[i]``); ``geometry`` is the validated geometry mapping, read-only
+    (its keys depend on its type: see the reference); ``fem`` None for a particle body."""
     name: str
     material: str
     geometry: ReadOnlyDict
@@ -261,8 +315,28 @@ class BodyConfig:
     velocity: tuple
     temperature: float | str | None
     method: str
-    fem: ReadOnlyDict
-    rigid: ReadOnlyDict
+    fem: FemConfig | None
+    rigid: RigidConfig
+
+    @classmethod
+    def from_case(cls, body):
+        fem = FemConfig.from_case(body["fem"]) if body["method"] == "fem" else None
+        return record(cls, body, fem=fem, rigid=record(RigidConfig, body.get("rigid") or {}))
+
+    @property
+    def is_fem(self):
+        """Whether the body is a mesh of hexahedra (``method: fem``), not particles."""
+        return self.method == "fem"
+
+    @property
+    def free_axes(self):
+        """The translation components a rigid body leaves free (``rigid.free``)."""
+        return self.rigid.free or ()
+
+    @property
+    def convert(self):
+        """The conversion rules of an FEM body's elements, or None."""
+        return self.fem.convert if self.is_fem else None
 
 
 @mirrors(TOP_LEVEL, case="the whole validated case, read-only (``thawed(config.case)`` is "
@@ -290,7 +364,7 @@ class CaseConfig:
         """The records of a validated case dict (``load_case``, ``validate_case``)."""
         return record(
             cls, case, grid=GridConfig.from_case(case["grid"]),
-            bodies=tuple(record(BodyConfig, body) for body in case["bodies"]),
+            bodies=tuple(BodyConfig.from_case(body) for body in case["bodies"]),
             loads=tuple(LoadConfig.from_case(load) for load in case["loads"]),
             time=record(TimeConfig, case["time"]), output=record(OutputConfig, case["output"]),
             decomposition=record(DecompositionConfig, case["decomposition"]),

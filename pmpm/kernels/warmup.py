@@ -108,7 +108,7 @@ def kernels_of(config):
     contact where it meets two FEM bodies, grid coupling where a grid coupling meets
     particles, and the force log's kernels (``output.forces``), with those of free rigid
     particle bodies where there are some."""
-    fem = [b.method == "fem" for b in config.bodies]
+    fem = [b.is_fem for b in config.bodies]
     couplings = {config.contact.coupling} | {p.coupling for p in config.contact.pairs}
     particles = not all(fem)
     contact = config.contact.method > 0 and len(config.bodies) > 1
@@ -120,7 +120,7 @@ def kernels_of(config):
             "node_contact": "surface" in couplings and sum(fem) > 1,
             "fem_grid": any(fem) and particles and contact and "grid" in couplings,
             "forces": config.output.forces,
-            "free_rigid": contact and any(not f and (b.rigid or {}).get("free")
+            "free_rigid": contact and any(not f and b.free_axes
                                           for f, b in zip(fem, config.bodies))}
 
 
@@ -135,7 +135,7 @@ def _mirrors(grid):
 
 def _converts(config):
     """Whether an FEM body converts failing elements into particles."""
-    return any(b.method == "fem" and (b.fem or {}).get("convert") for b in config.bodies)
+    return any(b.convert for b in config.bodies)
 
 
 def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):

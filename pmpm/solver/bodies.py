@@ -24,7 +24,7 @@ class BodyTable:
         #: rigid particle body imposes its velocity too, and then takes the contact's
         #: impulses, pmpm.solver.rigid_particles)
         self.grid_rigid = self.rigid & ~np.array(
-            [bool((b.rigid or {}).get("free")) and b.method == "fem" for b in bodies], bool)
+            [bool(b.free_axes) and b.is_fem for b in bodies], bool)
         #: the particles' uGIMP half-width in cells: half the lattice spacing (an FEM
         #: body's: half that of the particles its elements convert into)
         self.half_width = np.array([0.5 * converted_spacing(b, config.grid.cell)
@@ -43,10 +43,9 @@ class BodyTable:
 def converted_spacing(body, cell):
     """The spacing, in cells, of the particles an FEM body's elements convert into
     (``fem.convert``: element size / particles per direction), or 0."""
-    convert = (body.fem or {}).get("convert") if body.method == "fem" else None
-    if not convert:
+    if body.convert is None:
         return 0.0
-    return float(body.fem["element_size"]) / convert["particles_per_direction"] / cell
+    return float(body.fem.element_size) / body.convert.particles_per_direction / cell
 
 
 def fill_positions(config, fill_body, case_dir):
@@ -120,7 +119,7 @@ def assign_loads(config, particles, count_global):
     problems = []
     names = [b.name for b in config.bodies]
     for i, load in enumerate(config.loads):
-        if config.bodies[names.index(load.body)].method == "fem":
+        if config.bodies[names.index(load.body)].is_fem:
             continue                    # its nodes: solver.fem_bodies.FemBodies
         selected = _in_region(particles, names.index(load.body), load.region)
         n_global = count_global(int(selected.sum()))

@@ -136,7 +136,7 @@ def start_shares(config):
     under FLIP (the acceleration alone, blended with that share of PIC), 0 for an FEM
     body's nodes (they take the acceleration)."""
     particles = 1.0 if config.time.transfer == "apic" else float(config.time.pic)
-    return [0.0 if b.method == "fem" else particles for b in config.bodies]
+    return [0.0 if b.is_fem else particles for b in config.bodies]
 
 
 class GridContact(Coupling):

@@ -58,13 +58,13 @@ class ConversionRules:
         self.volume_ratio = np.zeros(nb)
         self.step_ratio = np.zeros(nb)
         for b, body in enumerate(config.bodies):
-            convert = (body.fem or {}).get("convert") if body.method == "fem" else None
-            if not convert:
+            convert = body.convert
+            if convert is None:
                 continue
-            self.divisions[b] = convert["particles_per_direction"]
-            self.eps_p[b] = convert.get("eps_p", np.inf)
-            self.volume_ratio[b] = convert.get("volume_ratio", 0.0)
-            self.step_ratio[b] = convert.get("step_ratio", 0.0)
+            self.divisions[b] = convert.particles_per_direction
+            self.eps_p[b] = np.inf if convert.eps_p is None else convert.eps_p
+            self.volume_ratio[b] = convert.volume_ratio or 0.0
+            self.step_ratio[b] = convert.step_ratio or 0.0
 
     @property
     def active(self):

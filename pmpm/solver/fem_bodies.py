@@ -88,7 +88,7 @@ class FemBodies(BodyKind):
     def take_config(self, config, table, world):
         self.table, self.config, self.world = table, config, world
         self.names = table.names
-        self.body_indices = [b for b, body in enumerate(config.bodies) if body.method == "fem"]
+        self.body_indices = [b for b, body in enumerate(config.bodies) if body.is_fem]
         self.h = float(config.grid.cell)
         self.gravity = np.asarray(config.gravity, np.float64)
         self.load_vectors = np.zeros((1, 3))
@@ -587,10 +587,10 @@ def build_meshes(config, case_dir):
     from ..case.mesh import MeshReadError
     meshes = {}
     for b, body in enumerate(config.bodies):
-        if body.method != "fem":
+        if not body.is_fem:
             continue
         try:
-            points, hexes = hex_mesh(body.geometry, body.fem["element_size"], case_dir)
+            points, hexes = hex_mesh(body.geometry, body.fem.element_size, case_dir)
             fixed = constrained(points, body, case_dir, f"bodies[{b}].fem.constraints")
         except (MeshReadError, InvertedElementError, MixedMeshError) as error:
             raise SetupError([f"bodies[{b}].geometry: {error}"]) from None
@@ -618,30 +618,30 @@ def constrained(points, body, case_dir, key):
     """(n, 3) bool: the components each of ``body``'s constraints holds at zero."""
     from ..case.hexmesh import read_node_sets
     fixed = np.zeros(points.shape, bool)
-    items = body.fem.get("constraints") or ()
+    items = body.fem.constraints
     sets = read_node_sets(os.path.join(case_dir, body.geometry["file"])) \
-        if any("node_set" in c for c in items) else {}
+        if any(c.node_set is not None for c in items) else {}
     for j, item in enumerate(items):
-        if "node_set" in item:
+        if item.node_set is not None:
             chosen = np.zeros(len(points), bool)
-            chosen[sets[item["node_set"]]] = True
+            chosen[sets[item.node_set]] = True
         else:
-            lo, hi = np.asarray(item["region"]["min"]), np.asarray(item["region"]["max"])
+            lo, hi = np.asarray(item.region["min"]), np.asarray(item.region["max"])
             chosen = np.all((points >= lo) & (points <= hi), axis=1)
         if not chosen.any():
             raise SetupError([f"{key}[{j}]: selects no node of body '{body.name}'"])
-        for axis in item["fix"]:
+        for axis in item.fix:
             fixed[chosen, "xyz".index(axis)] = True
     return fixed
 
 
 def hourglass_form(fem):
-    """(kind, coefficient) of an FEM body's ``fem`` mapping: the reduced element's
-    hourglass form and coefficient, or ASSUMED_STRAIN (and 0: its stiffness comes from
-    the material) for ``element: assumed_strain``."""
-    if fem["element"] == "assumed_strain":
+    """(kind, coefficient) of an FEM body's ``fem`` (pmpm.case.FemConfig): the reduced
+    element's hourglass form and coefficient, or ASSUMED_STRAIN (and 0: its stiffness
+    comes from the material) for ``element: assumed_strain``."""
+    if fem.element == "assumed_strain":
         return ASSUMED_STRAIN, 0.0
-    return HOURGLASS_KINDS[fem["hourglass"]], fem["hourglass_coefficient"]
+    return HOURGLASS_KINDS[fem.hourglass], fem.hourglass_coefficient
 
 
 def start_rate(table, x, hexes, body, hg_kind, hg_k):

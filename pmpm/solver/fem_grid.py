@@ -265,7 +265,7 @@ def check_grid_coupling(config, rules, coupled, elements, world):
     (the FEM bodies' box)."""
     problems = []
     names = [b.name for b in config.bodies]
-    particles = np.array([b.method != "fem" for b in config.bodies])
+    particles = np.array([not b.is_fem for b in config.bodies])
     surface = (rules.coupling == SURFACE_COUPLING) & particles[None, :]
     for b in np.flatnonzero(coupled & surface.any(axis=1)):
         problems.append(f"{pair_key(config.contact, names[b])}: FEM body '{names[b]}' meets "
@@ -336,7 +336,7 @@ def grid_coupled_nodes(config, rules, elements, couplings, decomposition, grid, 
     what grid coupling cannot do yet (:func:`check_grid_coupling`)."""
     if elements is None or not rules.active:
         return []
-    coupled = grid_coupled_bodies(rules, [b.method == "fem" for b in config.bodies])
+    coupled = grid_coupled_bodies(rules, [b.is_fem for b in config.bodies])
     if not coupled.any():
         return []
     check_grid_coupling(config, rules, coupled, elements, elements.world)

@@ -106,7 +106,7 @@ def check_node_contact(config, rules, touches):
     which one also meets particle bodies on the grid (CFEMP moves its nodes through the
     grid contact; the two together are not validated)."""
     names = [b.name for b in config.bodies]
-    coupled = grid_coupled_bodies(rules, [b.method == "fem" for b in config.bodies])
+    coupled = grid_coupled_bodies(rules, [b.is_fem for b in config.bodies])
     problems = []
     for a, b in zip(*np.nonzero(np.triu(touches | touches.T))):
         if coupled[a] or coupled[b]:

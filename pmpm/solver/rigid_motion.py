@@ -167,9 +167,9 @@ def free_axes(config, method=None):
     of ``method`` only ("fem" or "particles") when given."""
     free = np.zeros((len(config.bodies), 3), bool)
     for b, body in enumerate(config.bodies):
-        if method is not None and (body.method == "fem") != (method == "fem"):
+        if method is not None and body.is_fem != (method == "fem"):
             continue
-        for axis in (body.rigid or {}).get("free", ()):
+        for axis in body.free_axes:
             free[b, "xyz".index(axis)] = True
     return free
 

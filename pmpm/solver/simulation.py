@@ -65,7 +65,7 @@ class Simulation:
             id_base = n_total + (ID_STRIDE * elements.n_elements_total if converting else 0)
         self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base)
         rules = ContactRules(config.contact, bodies,
-                             [b.method == "fem" for b in config.bodies])
+                             [b.is_fem for b in config.bodies])
         couplings = [TiedInterface(world)] if self.windows else []
         grid_contact = GridContact(rules, world, bodies, m_tiny, len(self.grids.states),
                                    start_shares(config)) if rules.active else None
@@ -78,7 +78,7 @@ class Simulation:
         nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
                                    grid, bodies, m_tiny)
         self.surface = self.node_contact = None
-        fem = np.array([b.method == "fem" for b in config.bodies])
+        fem = np.array([b.is_fem for b in config.bodies])
         surface = rules.coupling == SURFACE_COUPLING
         if elements and ((surface & (fem[:, None] != fem[None, :])).any() or converting):
             self.surface = SurfaceContact(rules, world, self.points, elements, grid,
@@ -182,7 +182,7 @@ class Simulation:
                                  slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         refined = scalars.get("refine")
         elements = None
-        if any(b.method == "fem" for b in config.bodies):
+        if any(b.is_fem for b in config.bodies):
             elements = FemBodies.from_checkpoint(groups["elements"], groups["nodes"], config,
                                                  bodies, world, grid, slabs)
         sim = cls(world, config, grid, slabs, particles, bodies,

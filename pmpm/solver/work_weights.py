@@ -46,12 +46,12 @@ QUANTUM = 0.25
 
 
 def formulation(fem, rigid):
-    """The ELEMENT_STEP_S key of an FEM body's completed ``fem`` mapping."""
+    """The ELEMENT_STEP_S key of an FEM body's ``fem`` (pmpm.case.FemConfig)."""
     if rigid:
         return "rigid"
-    if fem["element"] == "assumed_strain":
+    if fem.element == "assumed_strain":
         return "assumed_strain"
-    return f"reduced_{fem['hourglass']}"
+    return f"reduced_{fem.hourglass}"
 
 
 def element_weight(fem, rigid, shape):
@@ -65,5 +65,5 @@ def body_weights(config, rigid):
     """Per body of ``config`` the weight of one of its points: an FEM body's element
     weight, 1 for a particle body. ``rigid``: bool per body (solver.bodies.BodyTable)."""
     shape = config.grid.shape_functions
-    return np.array([element_weight(b.fem, rigid[i], shape) if b.method == "fem" else 1.0
+    return np.array([element_weight(b.fem, rigid[i], shape) if b.is_fem else 1.0
                      for i, b in enumerate(config.bodies)])
