@@ -9,6 +9,7 @@ from ..materials import layout
 from ..materials.state import MaterialState
 from . import boundary, contact, mpm, tied
 from .cache import refresh_kernel_caches
+from .portable import cube_roots
 from .shape import LINEAR, MARKERS, SHAPE_CODES
 from .warmup_fem import warm_up_couplings
 from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, GridGeometry,
@@ -84,6 +85,7 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
             mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, affine)
     x, level = pts.x, pts.level
     mpm.cell_keys(x, geo.origin, 1.0, n_cells)
+    cube_roots(np.ones(1))
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))

@@ -19,6 +19,8 @@ largest n^3.
 """
 import numpy as np
 
+from ..kernels.portable import cube_roots
+
 
 DIVIDED = ("mass", "vol0", "load_scale")
 
@@ -30,13 +32,23 @@ def sub_cube_offsets(n):
     return np.stack([a.ravel(), b.ravel(), c.ravel()], axis=1)
 
 
+def deformed_offsets(F, offsets):
+    """(p, k, 3): F_p applied to each offset k by elementwise products, summed over j as
+    (j = 0 + j = 2) + j = 1: the order np.einsum("pij,kj->pki") took with the pinned
+    numpy, so the answers did not move, but fixed here rather than left to einsum's SIMD
+    loops, whose order may differ with the CPU or a numpy release."""
+    o = offsets[None, :, None, :]
+    f = F[:, None, :, :]
+    return (f[..., 0] * o[..., 0] + f[..., 2] * o[..., 2]) + f[..., 1] * o[..., 1]
+
+
 def children_of(particles, parents, n, id_base, id_stride):
     """Columns of the n^3 children of each particle in ``parents`` (int index array)."""
     k = n ** 3
     offsets = sub_cube_offsets(n)
-    edge = np.cbrt(particles.vol0[parents])
+    edge = cube_roots(np.ascontiguousarray(particles.vol0[parents], np.float64))
     F = particles.F[parents].reshape(-1, 3, 3)
-    moved = np.einsum("pij,kj->pki", F, offsets) * edge[:, None, None]
+    moved = deformed_offsets(F, offsets) * edge[:, None, None]
     children = {}
     for name in particles.COLUMNS:
         column = np.repeat(getattr(particles, name)[parents], k, axis=0)

@@ -68,6 +68,7 @@ from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
 from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
+from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
 from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
                            totals_at_holders)
@@ -173,7 +174,7 @@ class NodeContact(Coupling):
         self.face_gid = fem.node_id[self.face_nodes]
         self.face_body = fem.node_body[self.face_nodes[:, 0]].astype(np.int64)
         self.face_holders = self.holders[self.face_nodes]
-        size = np.cbrt(np.repeat(fem.vol0, 6)[keep])
+        size = cube_roots(np.ascontiguousarray(np.repeat(fem.vol0, 6)[keep], np.float64))
         self.face_depth = DEPTH_SHARE * size
         self.slaves = self.slave_nodes(faces, free & self.slave_bodies[face_body])
         self.node_body = fem.node_body.astype(np.int64)

@@ -97,6 +97,7 @@ from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
 from ..kernels.boundary import FREE, column_kinds
 from ..kernels import surface_contact as ksc
+from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
 from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
                            totals_at_holders)
@@ -559,7 +560,7 @@ def closure(depth, radius, lift):
 
 def half_spacing(vol0):
     """A particle's radius: half its spacing, vol0^(1/3) / 2."""
-    return 0.5 * np.cbrt(vol0)
+    return 0.5 * cube_roots(np.ascontiguousarray(vol0, np.float64))
 
 
 def shapes(xi, eta):
