@@ -8,6 +8,9 @@ from pmpm.kernels import records
 from pmpm.materials.kernels import update_stress, update_stress_columns
 from pmpm.particles import Particles
 from pmpm.solver.couplings import Coupling
+from pmpm.solver.fem_bodies import FemBodies
+from pmpm.solver.fem_grid import FemGridNodes
+from pmpm.solver.kinds import BodyKind
 from pmpm.solver.particle_bodies import ParticleBodies
 
 PAGE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs",
@@ -52,6 +55,10 @@ def test_the_documented_hooks_and_phases_exist():
     for hook in re.findall(r"`(after_\w+)`", step) + ["view"]:
         assert hasattr(Coupling, hook), hook
     kind_part = step[step.index("A **body kind**"):step.index("A **coupling**")]
-    for phase in re.findall(r"`(\w+)`", kind_part):
-        if phase not in ("ParticleBodies", "particle_bodies", "fault", "LevelState"):
-            assert hasattr(ParticleBodies, phase), phase
+    kinds = (ParticleBodies, FemBodies, FemGridNodes)
+    names = {"BodyKind", "Stepper", "LevelState"} | {k.__name__ for k in kinds}
+    for phase in re.findall(r"`(\w+)(?:\.py)?`", kind_part):
+        if phase not in names and phase != "kinds":
+            assert any(hasattr(kind, phase) for kind in kinds), phase
+    for flag in ("on_grid", "owns_nodes", "follows_slabs", "rebalances"):
+        assert f"`{flag}`" in kind_part and hasattr(BodyKind, flag), flag
