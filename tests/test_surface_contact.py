@@ -113,7 +113,7 @@ def test_buckets_find_every_segment_a_particle_can_touch():
     base = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]])
     faces = centres[:, None, :] + base[None] + rng.normal(0, 0.05, (60, 4, 3))
     px = centres[rng.integers(0, 60, 400)] + rng.uniform(-0.7, 0.7, (400, 3)) * [1, 1, 0.3]
-    radius = np.full(400, 0.25)
+    vol0 = np.full(400, 0.125)                      # spacing 0.5: radius 0.25
     reach = 0.5
     lo_s, hi_s = faces.min(axis=1) - reach, faces.max(axis=1) + reach
     lo = lo_s.min(axis=0)
@@ -121,7 +121,7 @@ def test_buckets_find_every_segment_a_particle_can_touch():
     dims = np.ceil((hi_s.max(axis=0) - lo) / size).astype(np.int64)
     start, items = ksc.bucket_segments(lo_s, hi_s, lo, 1 / size, dims)
     # at rest: start-of-step positions as now, the search as deep as the radius
-    args = (px, px, np.zeros(400, np.int64), radius, radius, faces, faces, np.zeros(60),
+    args = (px, px, np.zeros(400, np.int64), vol0, np.zeros(400), faces, faces, np.zeros(60),
             np.ones(60, np.int64), np.arange(60, dtype=np.int64),
             np.array([[False, True], [False, False]]))
     seg, geo = np.empty(400, np.int64), np.empty((400, 6))

@@ -93,7 +93,7 @@ def test_a_centre_that_crossed_a_thin_plate_from_below_keeps_to_the_bottom_face(
         seg, geo = np.empty(1, np.int64), np.empty((1, 6))
         moved = abs(0.014 - z0)
         ksc.find_pairs(now, np.array([[0.02, 0.02, z0]]), np.zeros(1, np.int64),
-                       np.full(1, RADIUS), np.full(1, RADIUS + moved), faces, faces,
+                       np.full(1, (2 * RADIUS) ** 3), np.full(1, moved), faces, faces,
                        np.zeros(2), np.ones(2, np.int64), np.arange(2, dtype=np.int64),
                        np.array([[False, True], [False, False]]), np.full(3, -1.0), 0.1,
                        np.ones(3, np.int64), start, items, seg, geo)

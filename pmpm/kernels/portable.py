@@ -5,7 +5,7 @@ by the CPU at run time: on a CPU with AVX-512 its cube root can differ in the la
 from the C library's that it calls elsewhere, so an answer that goes through it moved
 with the machine (the refined Taylor bar's children are placed by their parent's spacing;
 its golden answer held on one machine and not on another). These loops call the C
-library's scalar function on every element, the same on every x86-64 CPU. Kernels
+library's scalar function on every element, whatever SIMD the CPU has. Kernels
 compiled by Numba call the C library's functions already."""
 import numpy as np
 from numba import njit

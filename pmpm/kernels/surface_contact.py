@@ -171,19 +171,20 @@ def segment_moves(seg_x, seg_x0, moves):
 
 
 @njit(cache=True)
-def find_pairs(px, px0, pbody, radius, depth, seg_x, seg_x0, seg_move, seg_body, seg_key,
+def find_pairs(px, px0, pbody, vol0, moved, seg_x, seg_x0, seg_move, seg_body, seg_key,
                touches, lo, inv_size, dims, start, items, pair_seg, pair_geo):
     """Per particle p its segment: among the segments of its bucket whose body it
-    ``touches[pbody, seg_body]``, those it is in contact with: g < radius[p] (the
-    particle a sphere of half its spacing), the closest point at most radius[p] from the
-    foot of the normal (so a particle beside an edge meets the side face), and a centre
-    that was on this face's side at the start of the step and has not gone through:
+    ``touches[pbody, seg_body]``, those it is in contact with: g < r (the particle a
+    sphere of half its spacing, r = vol0[p]^(1/3) / 2, the C library's cube root, taken
+    only for a particle whose bucket holds a face it meets), the closest point at most r
+    from the foot of the normal (so a particle beside an edge meets the side face), and a
+    centre that was on this face's side at the start of the step and has not gone through:
 
-    * g > -(depth[p] + seg_move[s]): the centre is at most as deep behind the face as its
-      radius plus how far it (``depth[p]`` = radius + its move in the step) and the face
-      (``seg_move[s]``) moved in the step. A centre that was out (or within its radius)
-      at the start cannot skip this window in one step, however fast it went;
-    * g0 > -radius[p], g0 the gap of the start-of-step centre ``px0`` from the
+    * g > -(r + moved[p] + seg_move[s]): the centre is at most as deep behind the face as
+      its radius plus how far it (``moved[p]``) and the face (``seg_move[s]``) moved in
+      the step. A centre that was out (or within its radius) at the start cannot skip
+      this window in one step, however fast it went;
+    * g0 > -r, g0 the gap of the start-of-step centre ``px0`` from the
       start-of-step face ``seg_x0``: the centre was not deeper than its radius behind the
       face before the step. This rules out the far faces of the body, and a face that a
       centre crossing a thin body reaches from behind: it is not pulled through to the
@@ -201,18 +202,22 @@ def find_pairs(px, px0, pbody, radius, depth, seg_x, seg_x0, seg_move, seg_body,
         if b < 0:
             continue
         best, best_key = np.inf, -1
+        radius = depth = -1.0
         for k in range(start[b], start[b + 1]):
             s = items[k]
             if not touches[pbody[p], seg_body[s]]:
                 continue
+            if radius < 0.0:
+                radius = 0.5 * np.cbrt(vol0[p])
+                depth = radius + moved[p]
             g, off = closest_point(seg_x[s], px[p], out)
-            if g >= radius[p] or g <= -(depth[p] + seg_move[s]) or off > radius[p]:
+            if g >= radius or g <= -(depth + seg_move[s]) or off > radius:
                 continue
             dist = g * g + off * off
-            if not nearer(dist, seg_key[s], best, best_key, TIE * radius[p] * radius[p]):
+            if not nearer(dist, seg_key[s], best, best_key, TIE * radius * radius):
                 continue
             g0, _ = closest_point(seg_x0[s], px0[p], before)
-            if g0 <= -radius[p]:
+            if g0 <= -radius:
                 continue
             best, best_key = dist, seg_key[s]
             pair_seg[p] = s

@@ -306,9 +306,10 @@ class Simulation:
     def energies(self):
         """Kinetic, internal (the elements' hourglass energy included) and total energy
         over all ranks and body kinds; with FEM bodies also ``hourglass`` on its own."""
+        parts = self.world.sum(np.array([kind.energies() for kind in self.all_kinds],
+                                        np.float64))          # one reduction for all
         kinetic = internal = hourglass = 0.0
-        for kind in self.all_kinds:
-            k, i, h = self.world.sum(np.array(kind.energies(), np.float64))
+        for k, i, h in parts:
             kinetic, internal, hourglass = kinetic + k, internal + (i + h), hourglass + h
         e = {"kinetic": kinetic, "internal": internal, "total": kinetic + internal}
         if self.elements:
@@ -327,7 +328,8 @@ class Simulation:
 
     def gravitational_potential(self, gravity):
         """-sum m g.x over all ranks and body kinds."""
-        return sum(self.world.sum(kind.potential(gravity)) for kind in self.all_kinds)
+        parts = self.world.sum(np.array([kind.potential(gravity) for kind in self.all_kinds]))
+        return sum(float(part) for part in parts)
 
     def load_power(self, vectors):
         """This rank's power of the loads at ``vectors`` (particles and FE nodes)."""

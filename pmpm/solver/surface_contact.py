@@ -445,9 +445,8 @@ class SurfaceContact(Coupling):
         size = max(edge, 2.0 * self.reach, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
         dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
         start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
-        radius = np.where(slave, half_spacing(p.vol0), 0.0)
         pair_seg, geo = np.empty(p.n, np.int64), np.empty((p.n, 6))
-        ksc.find_pairs(p.x, self.start_x, p.body.astype(np.int64), radius, radius + moved,
+        ksc.find_pairs(p.x, self.start_x, p.body.astype(np.int64), p.vol0, moved,
                        x, x0, seg_move, segs["body"], segs["key"], self.touches, lo,
                        1.0 / size, dims, start, items, pair_seg, geo)
         pair_p = np.flatnonzero(pair_seg >= 0)
