@@ -7,7 +7,7 @@ import numpy as np
 
 from ..materials import layout
 from ..materials.state import MaterialState
-from . import boundary, contact, mpm, tied
+from . import boundary, contact, mpm, observe, tied
 from .cache import refresh_kernel_caches
 from .portable import cube_roots
 from .shape import LINEAR, MARKERS, SHAPE_CODES
@@ -86,6 +86,9 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     x, level = pts.x, pts.level
     mpm.cell_keys(x, geo.origin, 1.0, n_cells)
     cube_roots(np.ones(1))
+    ones, zeros3 = np.ones(1), np.zeros((1, 3))
+    observe.body_sums(pts.body, ones, x, zeros3, ones, ones, ones, 1)   # history rows
+    observe.kinetic_and_internal(ones, zeros3, ones)
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))
