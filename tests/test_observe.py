@@ -1,7 +1,7 @@
 """The history row's one-pass observables (pmpm.kernels.observe) against NumPy."""
 import numpy as np
 
-from pmpm.kernels.observe import BLOCK, body_sums, kinetic_and_internal
+from pmpm.kernels.observe import BLOCK, body_sums, kinetic_and_internal, mass_moment_along
 
 
 def particles(n=3 * BLOCK + 17, n_bodies=3, seed=4):
@@ -37,3 +37,10 @@ def test_kinetic_and_internal_match_numpy():
                       rtol=1e-14)
     assert np.isclose(internal, np.sum(p["mass"] * p["e_int"]), rtol=1e-14)
     assert kinetic_and_internal(np.zeros(0), np.zeros((0, 3)), np.zeros(0)) == (0.0, 0.0)
+
+
+def test_mass_moment_along_a_direction_matches_numpy():
+    p = particles()
+    g = np.array([0.3, -9.81, 2.0])
+    assert np.isclose(mass_moment_along(p["mass"], p["x"], g), p["mass"] @ (p["x"] @ g),
+                      rtol=1e-13)

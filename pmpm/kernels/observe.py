@@ -61,3 +61,18 @@ def kinetic_and_internal(mass, v, e_int):
         kinetic += k
         internal += e
     return kinetic, internal
+
+
+@njit(cache=True)
+def mass_moment_along(mass, x, direction):
+    """sum m (x . direction) over the particles, in blocks as body_sums (the
+    gravitational potential is minus this with direction = g)."""
+    total = 0.0
+    n = mass.shape[0]
+    for start in range(0, n, BLOCK):
+        part = 0.0
+        for p in range(start, min(start + BLOCK, n)):
+            part += mass[p] * (x[p, 0] * direction[0] + x[p, 1] * direction[1] +
+                               x[p, 2] * direction[2])
+        total += part
+    return total

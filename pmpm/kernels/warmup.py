@@ -89,6 +89,7 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     ones, zeros3 = np.ones(1), np.zeros((1, 3))
     observe.body_sums(pts.body, ones, x, zeros3, ones, ones, ones, 1)   # history rows
     observe.kinetic_and_internal(ones, zeros3, ones)
+    observe.mass_moment_along(ones, x, np.zeros(3))
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..kernels import contact as kc
 from ..kernels import mpm, tied
+from ..kernels.observe import mass_moment_along
 from ..kernels.records import BodyMaterials, ExternalLoads, PointState
 from ..grid import window_bounds
 from ..particles.split import split
@@ -168,7 +169,7 @@ class ParticleBodies(BodyKind):
 
     def potential(self, gravity):
         p = self.particles
-        return -float(p.mass @ (p.x @ np.asarray(gravity, np.float64)))
+        return -mass_moment_along(p.mass, p.x, np.asarray(gravity, np.float64))
 
     def load_power(self, vectors):
         return load_power(self.particles, vectors)
