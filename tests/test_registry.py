@@ -10,7 +10,8 @@ import pytest
 
 from pmpm.solver import registry, simulation as simulation_module
 from pmpm.solver.couplings import Coupling
-from pmpm.solver.registry import COUPLING, KIND, PARTS, TRANSFER, Entry
+from pmpm.solver.fem_bodies import FemBodies
+from pmpm.solver.registry import COUPLING, KIND, KINDS, PARTS, TRANSFER, Entry
 from pmpm.solver.transfer import Transfer
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -31,6 +32,16 @@ def test_the_registry_names_each_part_once_with_its_case_key_and_a_known_role():
     assert names.index("grid_contact") < names.index("rigid_particles")
     keys = [e.kept.key for e in PARTS if e.kept]
     assert len(set(keys)) == len(keys)
+
+
+def test_the_kinds_beyond_the_particles_are_keyed_by_their_bodies_method():
+    """A kind exists only where some body has its method, right after the particles."""
+    assert [(e.method, e.name) for e in KINDS] == [("fem", "elements")]
+    particles = simulation("two_blocks.yaml", [QUIET])
+    assert particles.elements is None and particles.stepper.kinds == [particles.points]
+    fem = simulation("fem_taylor_convert.yaml", [QUIET])
+    assert isinstance(fem.elements, FemBodies)
+    assert fem.stepper.kinds == [fem.points, fem.elements]
 
 
 @pytest.mark.parametrize("case, overrides, expected", [

@@ -1,5 +1,10 @@
-"""The parts of a run beyond its particles and elements, built from one registry keyed
-by the case's names.
+"""The body kinds and the parts of a run, built from registries keyed by the case's
+names.
+
+The body kinds beyond the particles (which every run has: the material of the other
+kinds may become particles) are keyed by the ``method`` of the bodies they carry
+(``bodies[i].method``, :data:`KINDS`): each :class:`KindEntry` builds its kind from the
+initial layout or from a checkpoint's row sets.
 
 A part is a coupling of the step (pmpm.solver.couplings: what ties the fields together
 beyond one body on one grid), a body kind that a coupling brings (pmpm.solver.kinds: the
@@ -24,6 +29,7 @@ from .bodies import converted_spacing
 from .contact import SURFACE_COUPLING, GridContact, start_shares
 from .conversion import Conversion, ConversionRules
 from .couplings import TiedInterface
+from .fem_bodies import FemBodies
 from .fem_grid import grid_coupled_nodes
 from .forces import ForceLog
 from .node_contact import NodeContact, check_node_contact, node_contact_pairs
@@ -31,10 +37,65 @@ from .rigid_particles import free_rigid_particles
 from .surface_contact import SurfaceContact
 from .transfer import ElementsToParticles
 
-__all__ = ["COUPLING", "KIND", "PARTS", "TRANSFER", "Entry", "Kept", "Setup", "build_parts"]
+__all__ = ["COUPLING", "KIND", "KINDS", "PARTS", "TRANSFER", "Entry", "KindEntry", "Kept",
+           "Setup", "build_parts", "initial_kinds", "restored_kinds"]
 
 #: the roles of the parts: where the simulation hands them to the step
 COUPLING, KIND, TRANSFER = "coupling", "kind", "transfer"
+
+
+@dataclass(frozen=True)
+class KindEntry:
+    """A body kind keyed by the ``method`` of the bodies it carries: ``name`` (the
+    simulation's attribute for it, None when no body has the method),
+    ``initial(world, config, bodies, grid, slabs, layout)`` -> (the kind, the problems of
+    its set-up) from the initial layout (``Simulation.lay_out``'s ``meshes``), and
+    ``restored(world, config, bodies, grid, slabs, groups)`` -> the kind from a
+    checkpoint's row sets."""
+    method: str
+    name: str
+    initial: Callable
+    restored: Callable
+
+
+def initial_fem_bodies(world, config, bodies, grid, slabs, meshes):
+    """The FEM bodies of the initial meshes, with their loads (the problems of those)."""
+    elements = FemBodies(meshes, config, bodies, world, grid, slabs)
+    problems = elements.assign_loads(config.loads, bodies.names)
+    elements.forget_whole_mesh()
+    return elements, problems
+
+
+def restored_fem_bodies(world, config, bodies, grid, slabs, groups):
+    return FemBodies.from_checkpoint(groups["elements"], groups["nodes"], config, bodies,
+                                     world, grid, slabs)
+
+
+#: the body kinds beyond the particles, by the ``method`` of their bodies, in the order
+#: their parts are summed (after the particles)
+KINDS = (KindEntry("fem", "elements", initial_fem_bodies, restored_fem_bodies),)
+
+
+def asked_kinds(config):
+    """The entries of :data:`KINDS` whose method some body of ``config`` has."""
+    methods = {body.method for body in config.bodies}
+    return [entry for entry in KINDS if entry.method in methods]
+
+
+def initial_kinds(world, config, bodies, grid, slabs, layout):
+    """({name: kind} of the case's kinds beyond the particles, the problems of their
+    set-up) from the initial layout."""
+    kinds, problems = {}, []
+    for entry in asked_kinds(config):
+        kinds[entry.name], more = entry.initial(world, config, bodies, grid, slabs, layout)
+        problems += more
+    return kinds, problems
+
+
+def restored_kinds(world, config, bodies, grid, slabs, groups):
+    """{name: kind} of the case's kinds beyond the particles, from a checkpoint."""
+    return {entry.name: entry.restored(world, config, bodies, grid, slabs, groups)
+            for entry in asked_kinds(config)}
 
 
 @dataclass(frozen=True)

@@ -10,11 +10,12 @@ from .bodies import BodyTable, assign_loads, build_particles, fill_positions
 from .contact import ContactRules
 from .decomposition import Decomposition, slab_min_width
 from .errors import SetupError
-from .fem_bodies import FemBodies, build_meshes
+from .fem_bodies import build_meshes
 from .levels import Hierarchy
 from .particle_bodies import ParticleBodies
 from .refine import Refiner
-from .registry import KIND, PARTS, TRANSFER, Setup, build_parts
+from .registry import (KIND, KINDS, PARTS, TRANSFER, Setup, build_parts, initial_kinds,
+                       restored_kinds)
 from .schemes import make_scheme
 from .step import Stepper
 from .rigid_motion import RigidMotion
@@ -26,10 +27,16 @@ class Simulation:
     couplings, and the stepper that runs them."""
 
     def __init__(self, world, config, grid, slabs, particles, bodies, id_base=None,
-                 elements=None):
+                 kinds=None):
+        """``particles``: the particle store; ``kinds``: {name: kind} of the kinds beyond
+        the particles (solver.registry.KINDS), each an attribute (None: no body of its
+        method): ``elements``, the FEM bodies (solver.fem_bodies.FemBodies)."""
         self.world, self.config, self.grid = world, config, grid
         self.bodies = bodies
-        self.elements = elements        # solver.fem_bodies.FemBodies, or None
+        kinds = kinds or {}
+        for entry in KINDS:
+            setattr(self, entry.name, kinds.get(entry.name))
+        elements = self.elements
         if elements:
             motion = RigidMotion(config, elements, world)
             elements.rigid_motion = motion if motion.active else None
@@ -64,7 +71,7 @@ class Simulation:
             id_base = n_total + sum(t.reserved_ids for t in transfers)
         self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base)
         #: every body kind, in the order their parts are summed (solver.kinds)
-        self.all_kinds = [self.points] + ([elements] if elements else []) \
+        self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
             + self.parts_of(KIND)
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds,
                                setup.couplings, make_scheme(config.time.scheme),
@@ -113,13 +120,10 @@ class Simulation:
         particles = build_on_every_rank(world, lambda: build_particles(config, bodies, filled,
                                                                        mine))
         problems = assign_loads(config, particles, world.sum)
-        elements = FemBodies(meshes, config, bodies, world, grid, slabs) if meshes else None
-        if elements:
-            problems += elements.assign_loads(config.loads, bodies.names)
-            elements.forget_whole_mesh()
-        if problems:
-            raise SetupError(problems)
-        return cls(world, config, grid, slabs, particles, bodies, elements=elements)
+        kinds, more = initial_kinds(world, config, bodies, grid, slabs, meshes)
+        if problems + more:
+            raise SetupError(problems + more)
+        return cls(world, config, grid, slabs, particles, bodies, kinds=kinds)
 
     @classmethod
     def from_checkpoint(cls, world, config, scalars, columns, groups=None):
@@ -134,12 +138,9 @@ class Simulation:
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]],
                                  slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         refined = scalars.get("refine")
-        elements = None
-        if any(b.is_fem for b in config.bodies):
-            elements = FemBodies.from_checkpoint(groups["elements"], groups["nodes"], config,
-                                                 bodies, world, grid, slabs)
+        kinds = restored_kinds(world, config, bodies, grid, slabs, groups)
         sim = cls(world, config, grid, slabs, particles, bodies,
-                  refined["id_base"] if refined else None, elements=elements)
+                  refined["id_base"] if refined else None, kinds=kinds)
         if refined:
             sim.refiner.restore(refined)
         for entry in PARTS:
