@@ -242,12 +242,9 @@ def supported_fem_bodies(world, elements, n_bodies):
     return [int(b) for b in np.flatnonzero(world.max(held))]
 
 
-def deepest(part):
-    return part.deepest_centre() if isinstance(part, SurfaceContact) else part.deepest_node()
-
-
-def set_deepest(part, value):
-    part.deepest = value
+def set_deepest(contact, value):
+    """A contact's deepest penetration of the run so far, from a checkpoint."""
+    contact.deepest = value
 
 
 #: every part a case may ask for, in build and step order
@@ -257,9 +254,9 @@ PARTS = (
     Entry("rigid_particles", "bodies[i].rigid.free", COUPLING, rigid_particles),
     Entry("grid_nodes", "contact.coupling: grid", KIND, grid_coupled_fe_nodes),
     Entry("surface", "contact.coupling: surface", COUPLING, surface_contact,
-          Kept("surface_deepest", 0.0, deepest, set_deepest)),
+          Kept("surface_deepest", 0.0, SurfaceContact.deepest_centre, set_deepest)),
     Entry("node_contact", "contact.coupling: surface", COUPLING, node_contact,
-          Kept("node_deepest", 0.0, deepest, set_deepest)),
+          Kept("node_deepest", 0.0, NodeContact.deepest_node, set_deepest)),
     Entry("conversion", "bodies[i].fem.convert", TRANSFER, conversion, Kept("convert")),
     Entry("force_log", "output.forces", COUPLING, force_log, Kept("forces")),
 )
