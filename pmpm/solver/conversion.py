@@ -21,13 +21,18 @@ would invert (volume at most 0):
 * ids are ``id_base + n_max^3 * element id + k``, the same on any rank count; ``id_base``
   is the count of the run's initial particles, and the refined windows' splitting counts
   ids from above every id conversion can give (pmpm.solver.simulation);
-* in the same step every rank drops the converted elements' share of the masses of the
+* in the same step the step's transfer hook (pmpm.solver.transfer.ElementsToParticles)
+  takes the converted elements off: every rank drops their share of the masses of the
   nodes it holds (the converted elements of all ranks, gathered only when some element
   converts, applied in element id order so that every copy of a shared node, and 1 rank
   against N, agree), drops the nodes no element of its own uses any more, and the
   couplings rebuild what depends on the mesh (``after_elements_changed``: the free faces
   of surface contact, so that the dead element's neighbours' exposed faces are segments
   before the next step's contact).
+
+It is built from the registry (pmpm.solver.registry, ``bodies[i].fem.convert``); the
+particle ids it reserves (``reserved_ids``) are kept out of the refined windows'
+splitting by the simulation.
 
 The converted element's hourglass energy stays in the energy balance (FemBodies keeps
 it); the kinetic energy the nodes lose beyond what the particles take (the velocity
@@ -38,6 +43,7 @@ import numpy as np
 from ..case.fem import MAX_CONVERT_DIVISIONS
 from ..particles.store import COLUMNS, empty_column
 from .bodies import refinement
+from .transfer import Transfer
 
 #: natural coordinates of the 8 nodes (VTK order, pmpm.fem.hexahedron)
 CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
@@ -71,7 +77,7 @@ class ConversionRules:
         return bool(self.divisions.any())
 
 
-class Conversion:
+class Conversion(Transfer):
     """Turns this rank's failing elements into particles at the end of each step
     (collective: one OR reduction per step; a gather and the couplings' rebuild only in
     a step where some element converts).
@@ -80,18 +86,16 @@ class Conversion:
     ----------
     world : comm.World
     rules : ConversionRules
-    elements : solver.fem_bodies.FemBodies
-    points : solver.particle_bodies.ParticleBodies   (the particles are added there)
-    couplings : list of solver.couplings.Coupling   (told ``after_elements_changed``)
+    mover : solver.transfer.ElementsToParticles   the step's hook that moves the
+        elements' material into the particles (its ``elements``: the FEM bodies)
     id_base : int   the number of the run's initial particles
     cell, particles_per_cell : the coarse cell and each body's lattice (the particles'
         ``refine`` column, as a filled body's)
     """
 
-    def __init__(self, world, rules, elements, points, couplings, id_base, cell,
-                 particles_per_cell):
-        self.world, self.rules, self.elements = world, rules, elements
-        self.points, self.couplings = points, couplings
+    def __init__(self, world, rules, mover, id_base, cell, particles_per_cell):
+        self.world, self.rules, self.mover = world, rules, mover
+        self.elements = mover.elements
         self.id_base, self.cell = int(id_base), float(cell)
         self.particles_per_cell = np.asarray(particles_per_cell, np.float64)
         self.converted = 0           # elements, over all ranks, since the start
@@ -110,6 +114,11 @@ class Conversion:
         if fem.n_elements:
             np.maximum.at(largest, fem.body, fem.shape_rates(initial=True))
         return self.world.max(largest)
+
+    @property
+    def reserved_ids(self):
+        """The ids its particles may take above ``id_base``: a stride per element."""
+        return ID_STRIDE * self.elements.n_elements_total
 
     def state(self):
         """What a checkpoint keeps (collective): the ids, the count, and the energies
@@ -131,19 +140,11 @@ class Conversion:
 
     def transfer(self):
         """Convert the elements that meet their body's criteria (collective)."""
-        fem = self.elements
         chosen = self.chosen()
         if not self.world.any(bool(chosen.any())):
             return 0
-        born = self.particles_of(np.flatnonzero(chosen))
-        before = fem.kinetic_energy_of_nodes()
-        shares = self.world.allgather(fem.mass_shares(chosen))
-        fem.remove_elements(chosen, merge_shares(shares))
-        self.kinetic_loss += before - fem.kinetic_energy_of_nodes() - kinetic(born)
-        self.points.particles.append(born)
-        for coupling in self.couplings:
-            coupling.after_elements_changed()
-        count = int(self.world.sum(int(chosen.sum())))
+        count, loss = self.mover.move(chosen, self.particles_of(np.flatnonzero(chosen)))
+        self.kinetic_loss += loss
         self.converted += count
         return count
 
@@ -203,18 +204,3 @@ def sub_cell_shapes(n):
     a, b, c = np.meshgrid(centres, centres, centres, indexing="ij")
     xi = np.stack([a.ravel(), b.ravel(), c.ravel()], axis=1)
     return np.prod(1.0 + xi[:, None, :] * CORNERS[None, :, :], axis=2) / 8.0
-
-
-def merge_shares(parts):
-    """Every rank's (element ids, node ids (m, 8), mass shares (m,)) as one set of
-    rows, in element id order."""
-    ids = np.concatenate([p[0] for p in parts])
-    order = np.argsort(ids, kind="stable")
-    nodes = np.concatenate([p[1] for p in parts])[order]
-    shares = np.concatenate([p[2] for p in parts])[order]
-    return ids[order], nodes, shares
-
-
-def kinetic(columns):
-    v = columns["v"]
-    return 0.5 * float(columns["mass"] @ np.einsum("ij,ij->i", v, v))

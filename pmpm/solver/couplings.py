@@ -5,11 +5,13 @@ A coupling answers the step's hooks (all optional, in step order):
 ``before_reflect`` (after the sums of the nodal values or forces, before their
 reflection across planes of symmetry), ``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums),
 ``after_integrate`` and ``after_update_points`` (the points and FE nodes have moved),
-and ``after_elements_changed`` (elements turned into particles at the end of a step);
+and ``after_elements_changed`` (elements turned into particles at the end of a step, or
+moved to another rank when the slabs were rebalanced);
 and gives the point kernels its ``view`` of a level (None: the point kernels see the one
 shared field). Today: the tied interface between refined windows and the coarse grid
 (seed 000 Sec. 3), multi-velocity grid contact (seed 001, ``pmpm.solver.contact``) and
-particle-to-surface contact with FEM bodies (seed 004, ``pmpm.solver.surface_contact``).
+particle-to-surface contact with FEM bodies (seed 004, ``pmpm.solver.surface_contact``);
+the simulation builds them from the registry (``pmpm.solver.registry``).
 """
 import numpy as np
 
@@ -44,8 +46,8 @@ class Coupling:
         pass
 
     def after_elements_changed(self):
-        """Elements were removed (converted into particles, pmpm.solver.conversion):
-        rebuild what depends on the mesh (collective)."""
+        """Elements were removed (moved into particles, pmpm.solver.transfer) or moved
+        to another rank (a rebalance): rebuild what depends on the mesh (collective)."""
 
     def view(self, state):
         return None

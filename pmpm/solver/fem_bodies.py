@@ -283,7 +283,8 @@ class FemBodies(BodyKind):
                                                  1e-6 * self.h)
         self.force = np.zeros_like(self.x)
 
-    # -- conversion (pmpm.solver.conversion) --------------------------------------------
+    # -- elements that leave the mesh: what a rule reads (pmpm.solver.conversion) and what
+    # -- the step's transfer hook does (pmpm.solver.transfer.ElementsToParticles) ------
     def volumes(self):
         """The elements' current volumes."""
         out = np.empty(len(self.hexes))
@@ -308,10 +309,10 @@ class FemBodies(BodyKind):
                 self.element_mass[chosen] / 8.0)
 
     def remove_elements(self, chosen, shares):
-        """Drop this rank's elements ``chosen`` (bool), take every rank's converted
-        elements' ``shares`` (merge_shares: rows in element id order) off the masses of
-        the nodes held here, drop the nodes no element here uses, and find the sharers
-        again (collective). The elements' hourglass energy stays counted."""
+        """Drop this rank's elements ``chosen`` (bool), take every rank's removed
+        elements' ``shares`` (transfer.merge_shares: rows in element id order) off the
+        masses of the nodes held here, drop the nodes no element here uses, and find the
+        sharers again (collective). The elements' hourglass energy stays counted."""
         self.converted_hourglass += float(self.hourglass.energy[chosen].sum())
         _, node_ids, share = shares
         held = np.searchsorted(self.node_id, node_ids.ravel())

@@ -30,13 +30,13 @@ class ModifiedUpdateStressLast:
         step.nodal_velocities()
         step.nodal_forces(dt)
         step.integrate(dt)
-        step.ask_moving_kinds("remember_start_positions")
+        step.remember_start_positions()
         step.update_points(dt)
-        step.ask_moving_kinds("back_to_start_positions")
+        step.back_to_start_positions()
         step.map_to_grid()
         step.nodal_velocities()
         step.update_stresses(dt)
-        step.ask_moving_kinds("on_to_moved_positions")
+        step.on_to_moved_positions()
 
 
 SCHEMES = {scheme.name: scheme for scheme in (UpdateStressFirst, ModifiedUpdateStressLast)}

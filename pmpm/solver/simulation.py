@@ -6,25 +6,19 @@ from ..comm.slabs import Slabs, choose_slabs
 from ..grid import CoarseGrid, Level, Window
 from ..kernels.shape import HALO, SHAPE_CODES
 from ..particles import particle_store
-from .bodies import (BodyTable, assign_loads, build_particles, converted_spacing,
-                     fill_positions)
-from .contact import SURFACE_COUPLING, ContactRules, GridContact, start_shares
-from .conversion import ID_STRIDE, Conversion, ConversionRules
-from .couplings import TiedInterface
+from .bodies import BodyTable, assign_loads, build_particles, fill_positions
+from .contact import ContactRules
 from .decomposition import Decomposition, slab_min_width
 from .errors import SetupError
-from .fem_bodies import FemBodies, build_meshes
-from .fem_grid import grid_coupled_nodes
-from .forces import ForceLog
+from .fem_bodies import build_meshes
 from .levels import Hierarchy
-from .node_contact import NodeContact, check_node_contact, node_contact_pairs
 from .particle_bodies import ParticleBodies
 from .refine import Refiner
+from .registry import (KIND, KINDS, PARTS, TRANSFER, Setup, build_parts, initial_kinds,
+                       restored_kinds)
 from .schemes import make_scheme
 from .step import Stepper
 from .rigid_motion import RigidMotion
-from .rigid_particles import free_rigid_particles
-from .surface_contact import SurfaceContact
 from .work_weights import body_weights
 
 
@@ -33,10 +27,16 @@ class Simulation:
     couplings, and the stepper that runs them."""
 
     def __init__(self, world, config, grid, slabs, particles, bodies, id_base=None,
-                 elements=None):
+                 kinds=None):
+        """``particles``: the particle store; ``kinds``: {name: kind} of the kinds beyond
+        the particles (solver.registry.KINDS), each an attribute (None: no body of its
+        method): ``elements``, the FEM bodies (solver.fem_bodies.FemBodies)."""
         self.world, self.config, self.grid = world, config, grid
         self.bodies = bodies
-        self.elements = elements        # solver.fem_bodies.FemBodies, or None
+        kinds = kinds or {}
+        for entry in KINDS:
+            setattr(self, entry.name, kinds.get(entry.name))
+        elements = self.elements
         if elements:
             motion = RigidMotion(config, elements, world)
             elements.rigid_motion = motion if motion.active else None
@@ -59,74 +59,34 @@ class Simulation:
         self.kinds = [self.points]
         self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows,
                                            len(bodies.names))
-        self.conversion_rules = ConversionRules(config)
-        converting = elements is not None and self.conversion_rules.active
-        if id_base is None:
-            id_base = n_total + (ID_STRIDE * elements.n_elements_total if converting else 0)
-        self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base)
         rules = ContactRules(config.contact, bodies,
                              [b.is_fem for b in config.bodies])
-        couplings = [TiedInterface(world)] if self.windows else []
-        grid_contact = GridContact(rules, world, bodies, m_tiny, len(self.grids.states),
-                                   start_shares(config)) if rules.active else None
-        if grid_contact:
-            couplings.append(grid_contact)
-        # right after the grid contact, whose fields it reads, before the points move
-        self.rigid_particles = free_rigid_particles(config, world, self.points, grid_contact)
-        if self.rigid_particles:
-            couplings.append(self.rigid_particles)
-        nodes = grid_coupled_nodes(config, rules, elements, couplings, self.decomposition,
-                                   grid, bodies, m_tiny)
-        self.surface = self.node_contact = None
-        fem = np.array([b.is_fem for b in config.bodies])
-        surface = rules.coupling == SURFACE_COUPLING
-        if elements and ((surface & (fem[:, None] != fem[None, :])).any() or converting):
-            self.surface = SurfaceContact(rules, world, self.points, elements, grid,
-                                          self.decomposition, self.converted_spacing())
-            couplings.append(self.surface)
-        touches = node_contact_pairs(rules, elements.body_indices,
-                                     elements.materials.rigid) if elements else None
-        if elements and touches.any():
-            check_node_contact(config, rules, touches)
-            self.node_contact = NodeContact(rules, world, elements, grid)
-            couplings.append(self.node_contact)
-        self.conversion = Conversion(world, self.conversion_rules, elements, self.points,
-                                     couplings, n_total, grid.h,
-                                     [b.particles_per_cell for b in config.bodies]) \
-            if converting else None
-        self.force_log = self.log_forces(config, couplings, m_tiny) \
-            if config.output.forces else None
+        setup = Setup(world, config, grid, bodies, self.points, elements, self.decomposition,
+                      rules, self.windows, len(self.grids.states), m_tiny, n_total)
+        self.parts = build_parts(setup, PARTS)
+        for entry in PARTS:               # each part is an attribute (None: not asked for)
+            setattr(self, entry.name, self.parts.get(entry.name))
+        transfers = self.parts_of(TRANSFER)
+        if id_base is None:               # split particles' ids above every transfer's
+            id_base = n_total + sum(t.reserved_ids for t in transfers)
+        self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base)
         #: every body kind, in the order their parts are summed (solver.kinds)
-        self.all_kinds = [self.points] + ([elements] if elements else []) + list(nodes)
-        self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds, couplings,
-                               make_scheme(config.time.scheme), self.refiner, m_tiny,
-                               [self.conversion] if self.conversion else [])
+        self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
+            + self.parts_of(KIND)
+        self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds,
+                               setup.couplings, make_scheme(config.time.scheme),
+                               self.refiner, m_tiny, transfers)
         self.decomposition.update_cell_ranges(self.kinds)
         self.loads = config.loads
         self.time, self.step_count = 0.0, 0
 
-    def log_forces(self, config, couplings, m_tiny):
-        """The force histories' log, last of the couplings (it reads their fields), and
-        told of by the surface couplings and the FEM bodies."""
-        grid_contact = next((c for c in couplings if isinstance(c, GridContact)), None)
-        log = ForceLog(config, self.world, self.bodies, m_tiny, grid_contact)
-        couplings.append(log)
-        for part in (self.surface, self.node_contact, self.elements):
-            if part is not None:
-                part.force_log = log
-        if self.elements is not None:
-            log.fem_supported = supported_fem_bodies(self.world, self.elements,
-                                                     len(self.bodies.names))
-        return log
+    def parts_of(self, role):
+        """The parts of ``role`` (solver.registry), in registry order."""
+        return [self.parts[e.name] for e in PARTS if e.role == role and e.name in self.parts]
 
     @property
     def particles(self):
         return self.points.particles
-
-    def converted_spacing(self):
-        """Per body the spacing of the particles its elements convert into (0: none)."""
-        cell = self.config.grid.cell
-        return [cell * converted_spacing(b, cell) for b in self.config.bodies]
 
     @property
     def slabs(self):
@@ -160,13 +120,10 @@ class Simulation:
         particles = build_on_every_rank(world, lambda: build_particles(config, bodies, filled,
                                                                        mine))
         problems = assign_loads(config, particles, world.sum)
-        elements = FemBodies(meshes, config, bodies, world, grid, slabs) if meshes else None
-        if elements:
-            problems += elements.assign_loads(config.loads, bodies.names)
-            elements.forget_whole_mesh()
-        if problems:
-            raise SetupError(problems)
-        return cls(world, config, grid, slabs, particles, bodies, elements=elements)
+        kinds, more = initial_kinds(world, config, bodies, grid, slabs, meshes)
+        if problems + more:
+            raise SetupError(problems + more)
+        return cls(world, config, grid, slabs, particles, bodies, kinds=kinds)
 
     @classmethod
     def from_checkpoint(cls, world, config, scalars, columns, groups=None):
@@ -181,27 +138,19 @@ class Simulation:
             slabs = choose_slabs(counts, world.size, "xyz"[scalars["slab_axis"]],
                                  slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
         refined = scalars.get("refine")
-        elements = None
-        if any(b.is_fem for b in config.bodies):
-            elements = FemBodies.from_checkpoint(groups["elements"], groups["nodes"], config,
-                                                 bodies, world, grid, slabs)
+        kinds = restored_kinds(world, config, bodies, grid, slabs, groups)
         sim = cls(world, config, grid, slabs, particles, bodies,
-                  refined["id_base"] if refined else None, elements=elements)
+                  refined["id_base"] if refined else None, kinds=kinds)
         if refined:
             sim.refiner.restore(refined)
-        if sim.conversion and scalars.get("convert"):
-            sim.conversion.restore(scalars["convert"])
+        for entry in PARTS:
+            if entry.kept and entry.name in sim.parts and scalars.get(entry.kept.key):
+                entry.kept.load(sim.parts[entry.name], scalars[entry.kept.key])
         sim.decomposition.send_to_owners(sim.kinds)
         sim.decomposition.update_cell_ranges(sim.kinds)
         sim.time, sim.step_count = scalars["time"], scalars["step"]
         sim.stepper.fastest = scalars["fastest"]
         sim.decomposition.lost = scalars.get("lost", 0)
-        if sim.surface:
-            sim.surface.deepest = scalars.get("surface_deepest", 0.0)
-        if sim.node_contact:
-            sim.node_contact.deepest = scalars.get("node_deepest", 0.0)
-        if sim.force_log:
-            sim.force_log.restore(scalars.get("forces"))
         for name in ("lost_count", "lost_mass"):
             if name in scalars:
                 getattr(sim.decomposition, name)[:] = scalars[name]
@@ -240,9 +189,8 @@ class Simulation:
         result = self.decomposition.rebalance(threshold, self.kinds, self.rebalancing())
         moved = [kind.migrate(self.grid, self.slabs) for kind in self.rebalancing()]
         if any(moved):
-            for contact in (self.surface, self.node_contact):
-                if contact:
-                    contact.refresh_faces()   # the faces of the elements now held here
+            for coupling in self.stepper.couplings:
+                coupling.after_elements_changed()   # the faces of the elements held here
         return result
 
     def rebalancing(self):
@@ -261,12 +209,12 @@ class Simulation:
                 "fastest": self.stepper.fastest, "lost": int(self.lost),
                 "lost_count": self.decomposition.lost_count.tolist(),
                 "lost_mass": self.decomposition.lost_mass.tolist(),
-                "refine": self.refiner.state(),
-                "convert": self.conversion.state() if self.conversion else None,
-                "surface_deepest": self.surface.deepest_centre() if self.surface else 0.0,
-                "node_deepest": self.node_contact.deepest_node() if self.node_contact
-                else 0.0,
-                "forces": self.force_log.state() if self.force_log else None}
+                "refine": self.refiner.state(), **self.parts_state()}
+
+    def parts_state(self):
+        """The checkpoint's scalars of the registry's parts that it keeps (collective)."""
+        return {e.kept.key: e.kept.save(self.parts[e.name]) if e.name in self.parts
+                else e.kept.absent for e in PARTS if e.kept}
 
     def checkpoint_groups(self):
         """The row sets a checkpoint keeps beside the particles (FEM bodies), or None."""
@@ -372,14 +320,6 @@ def checkpoint_histograms(world, config, grid, bodies, particles, groups):
     centroids = nodes["x"][order][corners].mean(axis=1)
     weights = body_weights(config, bodies.rigid)[elements["body"]]
     return [c + e for c, e in zip(counts, grid.cell_histograms(centroids, weights))]
-
-
-def supported_fem_bodies(world, elements, n_bodies):
-    """The FEM bodies with constrained nodes (on any rank), in body order."""
-    held = np.zeros(n_bodies)
-    for b in np.unique(elements.node_body[elements.fixed.any(axis=1)]):
-        held[b] = 1.0
-    return [int(b) for b in np.flatnonzero(world.max(held))]
 
 
 def build_on_every_rank(world, build):

@@ -1,7 +1,9 @@
 """One explicit step (DESIGN.md "One time step") as named phases over the coarse grid and
 any refined windows tied to it (seed 000 Sec. 4). The scheme (USF or MUSL) orders the
-phases; each phase asks every body kind for its points' part on every grid level and
-every coupling (tied interface, grid contact) for its hook."""
+phases; each phase calls its method on every body kind for its points' part on every
+grid level and its hook on every coupling (tied interface, grid contact): the objects
+the simulation built from the registries (pmpm.solver.registry) answer, no name is
+looked up."""
 from ..kernels import mpm
 from ..kernels.boundary import column_kinds
 
@@ -30,8 +32,9 @@ class Stepper:
     refiner : solver.refine.Refiner   windows that move, particles that split
     m_tiny : float   nodal mass below which a node counts as empty
     transfers : list of objects whose ``transfer()`` moves material from one kind to
-        another once the points have moved (solver.conversion.Conversion: elements into
-        particles), before windows split particles and points migrate
+        another once the points have moved (through solver.transfer.ElementsToParticles:
+        solver.conversion.Conversion), before windows split particles and points
+        migrate
     """
 
     def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny,
@@ -64,12 +67,16 @@ class Stepper:
         sums over shared slab planes (slaves to masters, Eqs. 17, 20) and after them
         (per-body contact fields)."""
         self.grids.zeros("nodal", mpm.NODAL_COMPONENTS)
-        self.ask_kinds("scatter_mass_momentum")
-        self.ask_couplings("after_scatter", self.grids, self.grid_kinds)
+        for s, kind in self.levels_and_kinds():
+            kind.scatter_mass_momentum(s)
+        for coupling in self.couplings:
+            coupling.after_scatter(self.grids, self.grid_kinds)
         self.grids.sum_shared("nodal")
-        self.ask_couplings("before_reflect", self.grids, "nodal")
+        for coupling in self.couplings:
+            coupling.before_reflect(self.grids, "nodal")
         self.grids.reflect("nodal", NODAL_KINDS)
-        self.ask_couplings("after_mass_sum", self.grids, self.grid_kinds)
+        for coupling in self.couplings:
+            coupling.after_mass_sum(self.grids, self.grid_kinds)
 
     def nodal_velocities(self):
         """Nodal velocities with the boundary conditions; slaves from masters (Eq. 22);
@@ -77,23 +84,26 @@ class Stepper:
         self.grids.empty("gvel", 3)
         for s in self.grids:
             mpm.nodal_velocities(s.nodal, s.nodes, self.m_tiny, s.gvel)
-        self.ask_couplings("after_velocities", self.grids)
+        for coupling in self.couplings:
+            coupling.after_velocities(self.grids)
 
     def stress_and_forces(self, dt):
         """USF: stress update and nodal forces on every level; slave forces to their
         masters (Eq. 18); the sums over shared slab planes."""
         self.grids.zeros("force", 3)
         self.advance_elements(dt)
-        self.fastest = self.ask_kinds_for_speed("stress_and_forces", dt)
+        fastest = 0.0
+        for s, kind in self.levels_and_kinds():
+            fastest = max(fastest, kind.stress_and_forces(s, dt, self.view(s)))
+        self.fastest = fastest
         self.complete_forces()
 
     def nodal_forces(self, dt):
         """MUSL: nodal forces from the stresses of the start of the step (Eqs. 31-32)."""
         self.grids.zeros("force", 3)
         self.advance_elements(dt)
-        for s in self.grids:
-            for kind in self.grid_kinds:
-                kind.scatter_forces(s, self.view(s))
+        for s, kind in self.levels_and_kinds():
+            kind.scatter_forces(s, self.view(s))
         self.complete_forces()
 
     def advance_elements(self, dt):
@@ -104,14 +114,21 @@ class Stepper:
             kind.advance_nodes(dt)
 
     def complete_forces(self):
-        self.ask_couplings("after_forces", self.grids)
+        for coupling in self.couplings:
+            coupling.after_forces(self.grids)
         self.grids.sum_shared("force")
-        self.ask_couplings("before_reflect", self.grids, "force")
+        for coupling in self.couplings:
+            coupling.before_reflect(self.grids, "force")
         self.grids.reflect("force", FORCE_KINDS)
 
     def update_stresses(self, dt):
-        """MUSL: the stress update from the velocities mapped back to the grid."""
-        self.fastest = self.ask_kinds_for_speed("update_stresses", dt)
+        """MUSL: the stress update from the velocities mapped back to the grid; the
+        fastest wave plus point speed, as the speed that gives the same Courant number
+        on the coarse grid."""
+        fastest = 0.0
+        for s, kind in self.levels_and_kinds():
+            fastest = max(fastest, kind.update_stresses(s, dt, self.view(s)))
+        self.fastest = fastest
 
     def integrate(self, dt):
         """Leap-frog on the nodes of every level (Eq. 14); contact forces (seed 001 Eqs.
@@ -119,37 +136,40 @@ class Stepper:
         self.grids.empty("gnew", 6)
         for s in self.grids:
             mpm.integrate_nodes(s.nodal, s.force, s.gvel, dt, s.nodes, self.m_tiny, s.gnew)
-        self.ask_couplings("after_integrate", self.grids, dt)
+        for coupling in self.couplings:
+            coupling.after_integrate(self.grids, dt)
 
     def update_points(self, dt):
         """Grid to points: positions and velocities (Eqs. 15-16); grid-coupled FE nodes
         take their contact correction; FE nodes move with their new half-step
         velocities; then particle-to-surface contact corrects both (seed 004 Sec. 3)."""
-        for s in self.grids:
-            for kind in self.grid_kinds:
-                kind.grid_to_points(s, dt, self.view(s))
+        for s, kind in self.levels_and_kinds():
+            kind.grid_to_points(s, dt, self.view(s))
         for kind in self.node_kinds:
             kind.move(dt)
-        self.ask_couplings("after_update_points", dt)
+        for coupling in self.couplings:
+            coupling.after_update_points(dt)
+
+    # -- MUSL's return to the start-of-step positions (the kinds that follow the slabs)
+    def remember_start_positions(self):
+        for kind in self.moving_kinds:
+            kind.remember_start_positions()
+
+    def back_to_start_positions(self):
+        for kind in self.moving_kinds:
+            kind.back_to_start_positions()
+
+    def on_to_moved_positions(self):
+        for kind in self.moving_kinds:
+            kind.on_to_moved_positions()
 
     # -- asking ------------------------------------------------------------------------
-    def ask_kinds(self, phase):
+    def levels_and_kinds(self):
+        """(level state, kind) for every grid level and every kind on the grid, level by
+        level: the order in which the kinds add to the shared fields."""
         for s in self.grids:
             for kind in self.grid_kinds:
-                getattr(kind, phase)(s)
-
-    def ask_kinds_for_speed(self, phase, dt):
-        """Run a stress phase on every level and kind; the fastest wave plus point speed,
-        as the speed that gives the same Courant number on the coarse grid."""
-        fastest = 0.0
-        for s in self.grids:
-            for kind in self.grid_kinds:
-                fastest = max(fastest, getattr(kind, phase)(s, dt, self.view(s)))
-        return fastest
-
-    def ask_couplings(self, hook, *args):
-        for coupling in self.couplings:
-            getattr(coupling, hook)(*args)
+                yield s, kind
 
     def view(self, state):
         """What the point kernels read of the couplings' fields on a level: the first
@@ -159,9 +179,3 @@ class Stepper:
             if view is not None:
                 return view
         return None
-
-    def ask_moving_kinds(self, method):
-        """``method()`` of every kind whose points follow the slabs (MUSL's returns to
-        the start-of-step positions)."""
-        for kind in self.moving_kinds:
-            getattr(kind, method)()
