@@ -50,6 +50,10 @@ def parse_args(argv=None):
     p.add_argument("--no-frames", action="store_true")
     p.add_argument("--copies", action="store_true")
     p.add_argument("--tolerance", type=float, default=1e-10)
+    p.add_argument("--latency-us", type=float, default=0.5,
+                   help="the model's latency (default: shared memory)")
+    p.add_argument("--bandwidth-gbs", type=float, default=5.0,
+                   help="the model's bandwidth (default: shared memory)")
     p.add_argument("--out", default=os.path.join(ROOT, "results", "scaling_cores"))
     return p.parse_args(argv)
 
@@ -151,9 +155,10 @@ def table(args, runs, copies):
              f"{', ' + args.shape if args.shape else ''}", "",
              f"{first['n_particles']['initial']:,} particles, {first['n_steps']} steps, "
              f"{args.repeat} repeats interleaved, medians; launcher `{args.mpiexec}`.", "",
-             "| ranks | ms per step | efficiency | efficiency range | particle imbalance | "
-             "busiest rank's busy CPU / mean | neighbour messages, kB per step (busiest) | "
-             "bytes/particle | energy vs 1 rank |", "|---|---|---|---|---|---|---|---|---|"]
+             "| ranks | ms per step | efficiency | efficiency range | scaling.py's model | "
+             "particle imbalance | busiest rank's busy CPU / mean | neighbour messages, kB "
+             "per step (busiest) | bytes/particle | energy vs 1 rank |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     worst = 0.0
     for ranks, summaries in runs.items():
         effs = [base / (ranks * step_s(s)) for s in summaries]
@@ -164,7 +169,8 @@ def table(args, runs, copies):
         lines.append(
             f"| {ranks} | {1e3 * statistics.median(step_s(s) for s in summaries):.1f} | "
             f"{100 * statistics.median(effs):.0f} % | {100 * min(effs):.0f}-"
-            f"{100 * max(effs):.0f} % | {1 + summaries[0]['slabs']['imbalance']:.3f} | "
+            f"{100 * max(effs):.0f} % | {100 * modelled(base, ranks, summaries[0], args):.0f} % | "
+            f"{1 + summaries[0]['slabs']['imbalance']:.3f} | "
             f"{max(busy) / statistics.mean(busy):.2f} | "
             f"{nb['messages_per_step']['largest']:.0f}, "
             f"{nb['bytes_per_step']['largest'] / 1e3:,.0f} | "
@@ -182,6 +188,23 @@ def table(args, runs, copies):
                   f"({'within' if worst <= args.tolerance else 'NOT within'} "
                   f"{args.tolerance:g})."]
     return lines, worst <= args.tolerance
+
+
+def modelled(base, ranks, summary, args):
+    """The efficiency scaling.py's model gives for this run: the 1-rank step divided
+    over the ranks times the run's particle imbalance, plus its counted messages at
+    ``--latency-us`` and ``--bandwidth-gbs`` (t_0 taken as 0: one rank's step is all
+    per-particle work)."""
+    busy = lambda kind, what: summary["communication"][kind][what]["largest"]
+    comm = {"m_nb": busy("neighbour", "messages_per_step"),
+            "b_nb": busy("neighbour", "bytes_per_step"),
+            "m_coll": busy("collective", "messages_per_step"),
+            "m_a2a": busy("alltoall", "messages_per_step"),
+            "b_a2a": busy("alltoall", "bytes_per_step")}
+    n = summary["n_particles"]["initial"]
+    step = scaling.model(base / n, n, ranks, 1 + summary["slabs"]["imbalance"], comm,
+                         args.latency_us * 1e-6, args.bandwidth_gbs * 1e9)
+    return base / (ranks * step)
 
 
 def child(argv):
