@@ -314,6 +314,13 @@ GRID = {
                           "(docs/validation/wall_friction.md)"),
     "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],
                      doc="refined sub-grids tied to the coarse grid (seed 000 Secs. 3-4)"),
+    "exact_sums": Field(boolean(), True,
+                        doc="add the particles' contributions to each node in an order "
+                            "that does not depend on the rank count (by cell layer along "
+                            "the slab axis, then by particle id), so that a run on N ranks "
+                            "gives the one-rank answer to the bit (without refined "
+                            "windows or grid-coupled FE nodes; pmpm.kernels.layered); "
+                            "false: in array order, which differs by round-off"),
     "lost_mass_fraction": Field(number(at_least(0), at_most(1)), 0.0, "1",
                                 "share of each body's initial mass that may leave the grid "
                                 "box (its particles are dropped, and counted in the progress "

@@ -23,6 +23,46 @@ def sum_shared_planes(world, planes, block):
     _combine_shared_planes(world, planes, block, np.add)
 
 
+def sum_shared_planes_in_layer_order(world, planes, block, kept):
+    """Complete the shared slab planes of a layer-ordered scatter (see
+    ``pmpm.kernels.layered``) so that they hold the one-rank sums to the bit.
+
+    The rank below sends its planes (the sums over its layers: the one-rank fold's
+    prefix), the rank above its first layers' sums ``kept`` on those planes; both then
+    compute ``((prefix + kept[0]) + kept[1]) + ...``, the same additions in the same
+    order as one rank, so both copies are identical and equal to one rank's.
+
+    Parameters
+    ----------
+    world : World
+    planes : sequence of (neighbour_rank, (first, stop)), as for ``sum_shared_planes``
+    block : ndarray (n_axis, n1, n2, c), the nodal array with the slab axis first
+    kept : ndarray (stop - first, stop - first, n1, n2, c): the sums of this rank's
+        first ``stop - first`` cell layers on the planes it shares with the rank below
+        (unused without one)
+    """
+    if not planes:
+        return
+    MPI = _mpi()
+    requests, received = [], []
+    for neighbour, (first, stop) in planes:
+        below = neighbour < world.rank
+        own = block[first:stop]
+        outgoing = kept if below else np.ascontiguousarray(own)
+        incoming = np.empty_like(own) if below else np.empty((stop - first,) + own.shape)
+        requests.append(world.raw.Irecv(incoming, source=neighbour, tag=72))
+        requests.append(world.raw.Isend(outgoing, dest=neighbour, tag=72))
+        world.traffic.note("neighbour", outgoing.nbytes)
+        received.append((below, own, incoming, outgoing))
+    MPI.Request.Waitall(requests)
+    for below, own, incoming, outgoing in received:
+        prefix, layers = (incoming, kept) if below else (outgoing, incoming)
+        total = prefix.copy()
+        for layer in layers:
+            total += layer
+        own[...] = total
+
+
 def or_shared_planes(world, planes, block):
     """Like ``sum_shared_planes`` for integer bit masks: OR in the neighbours' bits."""
     _combine_shared_planes(world, planes, block, np.bitwise_or)

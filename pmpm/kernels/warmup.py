@@ -10,10 +10,10 @@ from ..materials.state import MaterialState
 from . import boundary, contact, mpm, tied
 from .cache import refresh_kernel_caches
 from .portable import cube_roots
-from .shape import LINEAR, MARKERS, SHAPE_CODES
+from .shape import HALO, LINEAR, MARKERS, SHAPE_CODES
 from .warmup_fem import warm_up_couplings
 from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, GridGeometry,
-                      NodeBlock, PairRules, PointState, TieSet)
+                      LayerSums, NodeBlock, PairRules, PointState, TieSet)
 
 N = 27   # nodes of the warm-up block
 
@@ -22,6 +22,13 @@ N = 27   # nodes of the warm-up block
 #: couplings, the force log (pmpm.kernels.warmup_fem)
 ALL_COUPLINGS = {"fem": True, "surface": True, "node_contact": True, "fem_grid": True,
                  "forces": True, "free_rigid": True}
+
+
+def warm_up_layers(order, width, shape_code):
+    """A LayerSums record over the warm-up block (its 3 node planes of 9 nodes)."""
+    halo = HALO[shape_code]
+    return LayerSums(order, 0, 9, 3, halo, np.zeros(((2 + 2 * halo) * 9, width)),
+                     np.zeros((2 * halo + 1, (2 * halo + 1) * 9, width)))
 
 
 def warm_up_defaults():
@@ -72,19 +79,22 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     pairs = boundary.mirror_pairs(block)
     slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine) if contact else \
         (None, None)
-    mpm.particles_to_grid(pts, rigid, geo, nodal, 0, None)
-    if apic:
-        mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine)
+    order = np.zeros(1, np.int64)
+    for layers in (None, warm_up_layers(order, mpm.NODAL_COMPONENTS, shape_code)):
+        mpm.particles_to_grid(pts, rigid, geo, nodal, 0, None, layers)
+        if apic:
+            mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine, layers)
     mpm.nodal_velocities(nodal, block, 0.0, gvel)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, block, 0.0, gnew)
     for contact_view in (None, view) if contact else (None,):
-        mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
-                              contact_view, 0, True, True)
+        for layers in (None, warm_up_layers(order, 3, shape_code)):
+            mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
+                                  contact_view, 0, True, True, layers)
         mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, None)
         if apic:
             mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, affine)
     x, level = pts.x, pts.level
-    mpm.cell_keys(x, geo.origin, 1.0, n_cells)
+    mpm.slab_cell_keys(x, geo.origin, 1.0, n_cells, 0)
     cube_roots(np.ones(1))
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)

@@ -3,10 +3,11 @@ its node block and nodal arrays (seed 000 Sec. 3.1)."""
 import numpy as np
 
 from ..comm import sum_shared_planes
+from ..comm.exchange import sum_shared_planes_in_layer_order
 from ..kernels import mpm
 from ..kernels.boundary import fill_face_codes, mirror_pairs, mirror_rows
 from ..kernels.shape import MARKERS
-from ..kernels.records import GridGeometry, NodeBlock
+from ..kernels.records import GridGeometry, LayerSums, NodeBlock
 from .workspace import Workspace
 
 NO_PAIRS = np.zeros((0, 3), np.int64)
@@ -39,6 +40,9 @@ class LevelState:
         self.tied = None
         self.block = None
         self.faces = np.zeros(0, np.uint16)
+        #: whether the particles' scatters are layer-ordered (``pmpm.kernels.layered``)
+        self.exact = False
+        self.kept = {}
 
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
@@ -53,6 +57,29 @@ class LevelState:
                                lv.friction)
         #: nodes beyond a plane of symmetry and their images (kernels.boundary)
         self.mirror = mirror_pairs(self.nodes) if lv.halo else NO_PAIRS
+
+    def layer_sums(self, name, width, order):
+        """The LayerSums record of a scatter into the nodal array ``name`` (``width``
+        columns) in the particle ``order``, or None when the sums are not layer-ordered.
+        Its ``kept`` sums wait in ``self.kept[name]`` for :meth:`Hierarchy.sum_shared`."""
+        if not self.exact:
+            return None
+        b, halo = self.block, self.level.halo
+        axis = b.slab_axis
+        plane, n_planes = int(b.strides[axis]), int(b.shape[axis])
+        scratch = self.work.zeros(name + "_layer", (2 + 2 * halo) * plane, width)
+        n_kept = 2 * halo + 1 if any(span[0] == 0 for _, span in b.shared_planes) else 0
+        kept = self.work.zeros(name + "_kept", n_kept * n_kept * plane, width)
+        kept = kept.reshape(n_kept, n_kept * plane, width)
+        self.kept[name] = kept
+        return LayerSums(order, axis, plane, n_planes, halo, scratch, kept)
+
+    def kept_planes(self, name, width):
+        """The kept first layers' sums of ``name`` as (layer, plane, n1, n2, c)."""
+        b = self.block
+        kept = self.kept[name]
+        return kept.reshape((kept.shape[0],) + (kept.shape[0],) + tuple(b.shape[b.order][1:])
+                            + (width,))
 
     def reflect(self, array, kinds, slot_of=None):
         """Reflect ``array`` (rows, c) or (rows, n_bodies, c) of this level's nodes (or
@@ -98,7 +125,12 @@ class Hierarchy:
         """Sum the nodal array ``name`` on the slab planes shared with neighbours."""
         for s in self.states:
             b = s.block
-            sum_shared_planes(self.world, b.shared_planes, b.as_planes(getattr(s, name)))
+            array = getattr(s, name)
+            if s.exact:
+                sum_shared_planes_in_layer_order(self.world, b.shared_planes, b.as_planes(array),
+                                                 s.kept_planes(name, array.shape[1]))
+            else:
+                sum_shared_planes(self.world, b.shared_planes, b.as_planes(array))
 
     def reflect(self, name, kinds):
         """Reflect the nodal array ``name`` across the box faces that are planes of

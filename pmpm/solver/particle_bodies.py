@@ -44,6 +44,8 @@ class ParticleBodies(BodyKind):
         self.level_of = np.zeros(0, np.int32)
         self.work = Workspace()
         self.fault = None
+        #: the canonical order of the layer-ordered scatters (set by each mass scatter)
+        self.order = np.zeros(0, np.int64)
 
     # -- records --------------------------------------------------------------------
     def points(self):
@@ -75,8 +77,23 @@ class ParticleBodies(BodyKind):
 
     # -- phases ------------------------------------------------------------------------
     def scatter_mass_momentum(self, state):
+        if state.exact and state.index == 0:       # the points' positions of this scatter
+            self.order = self.canonical_order(state.level.origin, state.level.inv_h,
+                                              state.level.n_cells, state.block.slab_axis)
         mpm.particles_to_grid(self.points(), self.bodies.rigid, state.geometry, state.nodal,
-                              state.index, self.affine())
+                              state.index, self.affine(),
+                              state.layer_sums("nodal", mpm.NODAL_COMPONENTS, self.order))
+
+    def canonical_order(self, origin, inv_h, n_cells, axis):
+        """The particles by (cell with the slab ``axis`` slowest, id): a rank's particles
+        are then a contiguous run of the one-rank order, whatever migration appended
+        (``pmpm.kernels.layered``)."""
+        p = self.particles
+        cells = mpm.slab_cell_keys(p.x, origin, inv_h, n_cells, axis)
+        span = int(p.id.max()) + 1 if p.n else 1
+        if int(np.prod(n_cells)) * span < 2 ** 62:
+            return np.argsort(cells * span + p.id, kind="stable")
+        return np.lexsort((p.id, cells))
 
     def mark_occupied(self, coarse, occupied):
         """The coarse nodes of cells holding coarse particles (the tied-interface search)."""
@@ -119,7 +136,8 @@ class ParticleBodies(BodyKind):
         lv = state.level
         fastest, bad = mpm.stress_and_forces(
             self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
-            state.geometry, state.gvel, state.force, contact, state.index, stresses, forces)
+            state.geometry, state.gvel, state.force, contact, state.index, stresses, forces,
+            state.layer_sums("force", 3, self.order) if forces else None)
         self.note_fault(bad, FAILED_UPDATE)
         return fastest * lv.ratio
 
@@ -186,11 +204,12 @@ class ParticleBodies(BodyKind):
         """None: a particle counts 1 in the slabs' balance (solver.work_weights)."""
         return None
 
-    def sort_by_cell(self, grid):
-        """Order particles by coarse cell so scatter and gather walk memory in order."""
-        p = self.particles
-        keys = mpm.cell_keys(p.x, grid.origin, 1.0 / grid.h, grid.n_cells)
-        p.take(np.argsort(keys, kind="stable"))
+    def sort_by_cell(self, grid, axis=0):
+        """Order particles by coarse cell (the slab ``axis`` slowest), then id, so that
+        scatter and gather walk memory in order and the canonical order of the
+        layer-ordered sums stays close to the array order (cheap to sort)."""
+        self.particles.take(self.canonical_order(grid.origin, 1.0 / grid.h, grid.n_cells,
+                                                 axis))
 
     # -- refinement (seed 000 Sec. 3.4) -------------------------------------------------
     def split_entering(self, ratios, id_base, id_stride):

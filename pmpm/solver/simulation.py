@@ -98,6 +98,8 @@ class Simulation:
             if config.output.forces else None
         #: every body kind, in the order their parts are summed (solver.kinds)
         self.all_kinds = [self.points] + ([elements] if elements else []) + list(nodes)
+        self.grids.coarse.exact = config.grid.exact_sums and not self.windows and \
+            [k for k in self.all_kinds if k.on_grid] == [self.points]
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds, couplings,
                                make_scheme(config.time.scheme), self.refiner, m_tiny,
                                [self.conversion] if self.conversion else [])
@@ -232,7 +234,7 @@ class Simulation:
 
     def sort_by_cell(self):
         for kind in self.kinds:
-            kind.sort_by_cell(self.grid)
+            kind.sort_by_cell(self.grid, self.slabs.axis)
 
     def rebalance(self, threshold):
         """Rebalance the slabs; FEM elements whose centroid left their rank's slab
