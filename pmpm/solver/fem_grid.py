@@ -168,7 +168,8 @@ class FemGridNodes(BodyKind):
         if state.index == 0:
             self.gather()
         mpm.particles_to_grid(self.pts, self.rigid, state.geometry, state.nodal, state.index,
-                              None)       # no affine matrices: the warm-up's signature
+                              None, None)   # no affine matrices, no layers: the warm-up's
+                                            # signature
 
     def mark_occupied(self, coarse, occupied):
         g = coarse.geometry

@@ -126,7 +126,7 @@ class Hierarchy:
         for s in self.states:
             b = s.block
             array = getattr(s, name)
-            if s.exact:
+            if s.exact and name in s.kept:          # a layer-ordered scatter's array
                 sum_shared_planes_in_layer_order(self.world, b.shared_planes, b.as_planes(array),
                                                  s.kept_planes(name, array.shape[1]))
             else:
