@@ -56,11 +56,16 @@ def sum_shared_planes_in_layer_order(world, planes, block, kept):
         received.append((below, own, incoming, outgoing))
     MPI.Request.Waitall(requests)
     for below, own, incoming, outgoing in received:
-        prefix, layers = (incoming, kept) if below else (outgoing, incoming)
-        total = prefix.copy()
-        for layer in layers:
-            total += layer
-        own[...] = total
+        own[...] = fold_layers(incoming, kept) if below else fold_layers(outgoing, incoming)
+
+
+def fold_layers(prefix, layers):
+    """``((prefix + layers[0]) + layers[1]) + ...``: the lower rank's sums continued with
+    the upper rank's layer sums, in layer order (a new array)."""
+    total = prefix.copy()
+    for layer in layers:
+        total += layer
+    return total
 
 
 def or_shared_planes(world, planes, block):

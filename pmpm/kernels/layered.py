@@ -11,16 +11,17 @@ both continue that prefix in the same order.
 
 A scatter kernel adds a particle's contributions into ``scratch``, a window of
 ``2 + 2 halo`` node planes starting at the lower halo plane of the particle's layer
-(flat node index minus ``shift``), and :func:`flush_layer` adds the window into the
-nodal array when the layer changes. The cost: ``2 + 2 halo`` adds per node per step,
-against about 200 particle updates per node.
+(row minus :func:`layer_shift`), and :func:`flush_layer` adds the window into the
+array when the layer changes. The cost: ``2 + 2 halo`` adds per node per step, against
+about 200 particle updates per node. Rows are nodes (the nodal arrays) or contact slots
+(numbered in node order, so a plane's slots are one run of rows too).
 
 The ``LayerSums`` record (``pmpm.kernels.records``): ``order`` (n,) the particles in
-canonical order, ``axis`` the slab axis, ``plane`` nodes per node plane, ``n_planes``
-planes in the block, ``halo`` node layers a shape reaches beyond the cell, ``scratch``
-((2 + 2 halo) * plane, width) zeros, ``kept`` (2 halo + 1, (2 halo + 1) * plane, width)
-zeros: the sums of the rank's first ``2 halo + 1`` layers on the planes it shares with
-the rank below (empty when it has none).
+canonical order, ``axis`` the slab axis, ``starts`` (n_planes + 1,) the first row of
+each node plane of the block, ``halo`` node layers a shape reaches beyond the cell,
+``scratch`` (rows of the widest window, width) zeros, ``kept`` (2 halo + 1, rows of the
+first 2 halo + 1 planes, width) zeros: the sums of the rank's first ``2 halo + 1``
+layers on the planes it shares with the rank below (no layer when it has none).
 """
 import numpy as np
 from numba import njit
@@ -36,24 +37,27 @@ def layer_plane(x, p, origin, inv_h, lo, axis):
     return np.int64(np.floor((x[p, axis] - origin[axis]) * inv_h)) - lo[axis]
 
 
+@njit(cache=True, inline="always")
+def layer_shift(layers, layer):
+    """The first row of ``layer``'s window: the row of its lower halo plane."""
+    return layers.starts[layer - layers.halo]
+
+
 @njit(cache=True)
 def flush_layer(target, layers, scratch, layer):
-    """Add the window of ``layer`` (a local cell plane) into ``target``, keep the sums
-    on the lower shared planes of the rank's first layers, and zero the window."""
-    plane, halo, kept = layers.plane, layers.halo, layers.kept
+    """Add the window of ``layer`` (a local cell plane) into ``target`` (rows, c), keep
+    its rows on the planes the rank shares with the rank below if it is one of the
+    rank's first layers, and zero the window."""
+    starts, halo, kept = layers.starts, layers.halo, layers.kept
     first = layer - halo
-    n_kept = kept.shape[0]
+    last = min(first + 2 + 2 * halo, starts.shape[0] - 1)
+    shift, rows = starts[first], starts[last] - starts[first]
     width = target.shape[1]
-    for j in range(2 + 2 * halo):
-        P = first + j
-        if P < 0 or P >= layers.n_planes:
-            continue
-        src, dst = j * plane, P * plane
-        for i in range(plane):
+    for i in range(rows):
+        for c in range(width):
+            target[shift + i, c] += scratch[i, c]
+    if first < kept.shape[0]:
+        for i in range(min(rows, kept.shape[1] - shift)):
             for c in range(width):
-                target[dst + i, c] += scratch[src + i, c]
-        if 0 <= first < n_kept and P < n_kept:
-            for i in range(plane):
-                for c in range(width):
-                    kept[first, dst + i, c] = scratch[src + i, c]
-    scratch[:, :] = 0.0
+                kept[first, shift + i, c] = scratch[i, c]
+    scratch[:rows, :] = 0.0

@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .layered import NO_LAYER, flush_layer, layer_plane
+from .layered import NO_LAYER, flush_layer, layer_plane, layer_shift
 from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
@@ -56,7 +56,7 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             if layer != current:
                 if current != NO_LAYER:
                     flush_layer(nodal, layers, acc, current)
-                current, shift = layer, (layer - layers.halo) * layers.plane
+                current, shift = layer, layer_shift(layers, layer)
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
         if shape != LINEAR and affine is None:      # the tensor product, row by row
@@ -304,7 +304,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             if layer != current:
                 if current != NO_LAYER:
                     flush_layer(force, layers, acc, current)
-                current, shift = layer, (layer - layers.halo) * layers.plane
+                current, shift = layer, layer_shift(layers, layer)
         b = body[p]
         if rigid[b]:               # moves with its own velocity, which limits the step too
             if stresses:

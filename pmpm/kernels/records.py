@@ -30,10 +30,10 @@ NodeBlock = namedtuple("NodeBlock", "shape lo strides n_cells boundary faces fri
 PointState = namedtuple("PointState", "x v mass body level")
 
 #: A layer-ordered scatter (``pmpm.kernels.layered``): the particles' canonical
-#: ``order`` (n,), the slab ``axis``, nodes per ``plane``, ``n_planes`` of the block,
-#: the shape's ``halo``, the ``scratch`` window ((2 + 2 halo) * plane, c) and the
-#: ``kept`` first layers' sums (2 halo + 1 or 0, (2 halo + 1) * plane, c).
-LayerSums = namedtuple("LayerSums", "order axis plane n_planes halo scratch kept")
+#: ``order`` (n,), the slab ``axis``, the first row of each node plane ``starts``
+#: (n_planes + 1,), the shape's ``halo``, the ``scratch`` window (rows, c) and the
+#: ``kept`` first layers' sums (layers, rows, c).
+LayerSums = namedtuple("LayerSums", "order axis starts halo scratch kept")
 
 #: Per body: material ``codes`` (nb,), packed ``params`` (nb, N_SLOTS), ``rigid`` (nb,).
 BodyMaterials = namedtuple("BodyMaterials", "codes params rigid")

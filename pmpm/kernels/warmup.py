@@ -27,8 +27,8 @@ ALL_COUPLINGS = {"fem": True, "surface": True, "node_contact": True, "fem_grid":
 def warm_up_layers(order, width, shape_code):
     """A LayerSums record over the warm-up block (its 3 node planes of 9 nodes)."""
     halo = HALO[shape_code]
-    return LayerSums(order, 0, 9, 3, halo, np.zeros(((2 + 2 * halo) * 9, width)),
-                     np.zeros((2 * halo + 1, (2 * halo + 1) * 9, width)))
+    return LayerSums(order, 0, np.arange(4, dtype=np.int64) * 9, halo,
+                     np.zeros((27, width)), np.zeros((1, 9, width)))
 
 
 def warm_up_defaults():

@@ -64,22 +64,17 @@ class LevelState:
         Its ``kept`` sums wait in ``self.kept[name]`` for :meth:`Hierarchy.sum_shared`."""
         if not self.exact:
             return None
-        b, halo = self.block, self.level.halo
-        axis = b.slab_axis
-        plane, n_planes = int(b.strides[axis]), int(b.shape[axis])
-        scratch = self.work.zeros(name + "_layer", (2 + 2 * halo) * plane, width)
-        n_kept = 2 * halo + 1 if any(span[0] == 0 for _, span in b.shared_planes) else 0
-        kept = self.work.zeros(name + "_kept", n_kept * n_kept * plane, width)
-        kept = kept.reshape(n_kept, n_kept * plane, width)
-        self.kept[name] = kept
-        return LayerSums(order, axis, plane, n_planes, halo, scratch, kept)
+        b = self.block
+        starts = np.arange(b.shape[b.slab_axis] + 1, dtype=np.int64) * b.strides[b.slab_axis]
+        layers = layer_record(self.work, name, order, b, starts, self.level.halo, width)
+        self.kept[name] = layers.kept
+        return layers
 
     def kept_planes(self, name, width):
         """The kept first layers' sums of ``name`` as (layer, plane, n1, n2, c)."""
         b = self.block
         kept = self.kept[name]
-        return kept.reshape((kept.shape[0],) + (kept.shape[0],) + tuple(b.shape[b.order][1:])
-                            + (width,))
+        return kept.reshape((kept.shape[0],) * 2 + tuple(b.shape[b.order][1:]) + (width,))
 
     def reflect(self, array, kinds, slot_of=None):
         """Reflect ``array`` (rows, c) or (rows, n_bodies, c) of this level's nodes (or
@@ -88,6 +83,23 @@ class LevelState:
         if len(self.mirror):
             mirror_rows(as_rows(array, len(kinds)), kinds, self.mirror, self.nodes.boundary,
                         slot_of, self.tied)
+
+
+def layer_record(work, name, order, block, starts, halo, width):
+    """A LayerSums record (``pmpm.kernels.layered``) over the rows ``starts`` gives each
+    node plane of ``block`` (nodes, or contact slots), its buffers from ``work``: kept
+    layers only where the block shares planes with the rank below."""
+    window = 2 + 2 * halo
+    n_planes = len(starts) - 1
+    reach = min(window, n_planes)
+    rows = int(np.max(starts[reach:] - starts[:len(starts) - reach])) if n_planes else 0
+    scratch = work.zeros(name + "_layer", rows, width)
+    below = any(span[0] == 0 for _, span in block.shared_planes)
+    n_kept = 2 * halo + 1 if below else 0
+    kept_rows = int(starts[min(n_kept, n_planes)])
+    kept = work.zeros(name + "_kept", n_kept * kept_rows, width)
+    return LayerSums(order, block.slab_axis, starts, halo, scratch,
+                     kept.reshape(n_kept, kept_rows, width))
 
 
 class Hierarchy:
