@@ -11,7 +11,7 @@ both continue that prefix in the same order.
 
 A scatter kernel adds a particle's contributions into ``scratch``, a window of
 ``2 + 2 halo`` node planes starting at the lower halo plane of the particle's layer
-(row minus :func:`layer_shift`), and :func:`flush_layer` adds the window into the
+(row minus ``starts[layer - halo]``), and :func:`flush_layer` adds the window into the
 array when the layer changes. The cost: ``2 + 2 halo`` adds per node per step, against
 about 200 particle updates per node. Rows are nodes (the nodal arrays) or contact slots
 (numbered in node order, so a plane's slots are one run of rows too).
@@ -37,18 +37,12 @@ def layer_plane(x, p, origin, inv_h, lo, axis):
     return np.int64(np.floor((x[p, axis] - origin[axis]) * inv_h)) - lo[axis]
 
 
-@njit(cache=True, inline="always")
-def layer_shift(layers, layer):
-    """The first row of ``layer``'s window: the row of its lower halo plane."""
-    return layers.starts[layer - layers.halo]
-
-
 @njit(cache=True)
-def flush_layer(target, layers, scratch, layer):
+def flush_layer(target, scratch, starts, halo, kept, layer):
     """Add the window of ``layer`` (a local cell plane) into ``target`` (rows, c), keep
     its rows on the planes the rank shares with the rank below if it is one of the
-    rank's first layers, and zero the window."""
-    starts, halo, kept = layers.starts, layers.halo, layers.kept
+    rank's first layers, and zero the window. Takes the record's arrays, not the record:
+    a record used inside a particle loop costs a reference count per particle."""
     first = layer - halo
     last = min(first + 2 + 2 * halo, starts.shape[0] - 1)
     shift, rows = starts[first], starts[last] - starts[first]

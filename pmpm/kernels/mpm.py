@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .layered import NO_LAYER, flush_layer, layer_plane, layer_shift
+from .layered import NO_LAYER, flush_layer, layer_plane
 from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
@@ -43,20 +43,24 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e, M = np.zeros((MAX_NODES, 3)), np.zeros((3, 3))
     acc, count, current, shift = nodal, x.shape[0], NO_LAYER, 0
+    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
+    axis = halo = 0                       # unpacked: no record in the loop
     if layers is not None:
-        acc, count = layers.scratch, layers.order.shape[0]
+        acc, order, axis = layers.scratch, layers.order, layers.axis
+        starts, halo, kept = layers.starts, layers.halo, layers.kept
+        count = order.shape[0]
     for i in range(count):
         p = i
         if layers is not None:
-            p = layers.order[i]
+            p = order[i]
         if level[p] != want:
             continue
         if layers is not None:
-            layer = layer_plane(x, p, origin, inv_h, lo, layers.axis)
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
                 if current != NO_LAYER:
-                    flush_layer(nodal, layers, acc, current)
-                current, shift = layer, layer_shift(layers, layer)
+                    flush_layer(nodal, acc, starts, halo, kept, current)
+                current, shift = layer, starts[layer - halo]
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
         if shape != LINEAR and affine is None:      # the tensor product, row by row
@@ -88,7 +92,7 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             acc[n, slot + 2] += mw * v[p, 1]
             acc[n, slot + 3] += mw * v[p, 2]
     if layers is not None and current != NO_LAYER:
-        flush_layer(nodal, layers, acc, current)
+        flush_layer(nodal, acc, starts, halo, kept, current)
 
 
 @njit(cache=True, inline="always")
@@ -291,20 +295,24 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     fastest, bad = 0.0, -1
     base, reach = 0, MAX_NODES
     acc, count, current, shift = force, x.shape[0], NO_LAYER, 0
+    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
+    axis = halo = 0                       # unpacked: no record in the loop
     if layers is not None:
-        acc, count = layers.scratch, layers.order.shape[0]
+        acc, order, axis = layers.scratch, layers.order, layers.axis
+        starts, halo, kept = layers.starts, layers.halo, layers.kept
+        count = order.shape[0]
     for i in range(count):
         p = i
         if layers is not None:
-            p = layers.order[i]
+            p = order[i]
         if level[p] != want:
             continue
         if layers is not None:
-            layer = layer_plane(x, p, origin, inv_h, lo, layers.axis)
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
                 if current != NO_LAYER:
-                    flush_layer(force, layers, acc, current)
-                current, shift = layer, layer_shift(layers, layer)
+                    flush_layer(force, acc, starts, halo, kept, current)
+                current, shift = layer, starts[layer - halo]
         b = body[p]
         if rigid[b]:               # moves with its own velocity, which limits the step too
             if stresses:
@@ -423,7 +431,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                             cforce[s, b, 1] += f1
                             cforce[s, b, 2] += f2
     if layers is not None and current != NO_LAYER:
-        flush_layer(force, layers, acc, current)
+        flush_layer(force, acc, starts, halo, kept, current)
     return fastest, bad
 
 
