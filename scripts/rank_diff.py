@@ -70,12 +70,28 @@ def particles(sim, comm):
         np.concatenate([a[2] for a in parts])[order]
 
 
+def fe_nodes(sim, comm):
+    """The owned FE nodes' (id, x, v) gathered to rank 0 by id, or None without any."""
+    fem = sim.elements
+    if fem is None:
+        return None
+    own = fem.owned
+    parts = comm.gather((fem.node_id[own], fem.x[own], fem.v[own]), root=0)
+    if comm.rank:
+        return None
+    ids = np.concatenate([a[0] for a in parts])
+    order = np.argsort(ids)
+    return ids[order], np.concatenate([a[1] for a in parts])[order], \
+        np.concatenate([a[2] for a in parts])[order]
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("case")
     ap.add_argument("steps", type=int)
     ap.add_argument("--set", action="append", default=[])
     ap.add_argument("--dt", type=float, default=None)
+    ap.add_argument("--every", type=int, default=1, help="print every so many steps")
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
     many = set_up(args.case, args.set, World(comm))
@@ -103,7 +119,13 @@ def main():
             po = particles(one, MPI.COMM_SELF)
             assert np.array_equal(pm[0], po[0])
             row.append(f"x {np.abs(pm[1] - po[1]).max():.2e} v {np.abs(pm[2] - po[2]).max():.2e}")
-            print(f"step {step}: " + "; ".join(row), flush=True)
+        fm = fe_nodes(many, comm)
+        if comm.rank == 0 and fm is not None:
+            fo = fe_nodes(one, MPI.COMM_SELF)
+            assert np.array_equal(fm[0], fo[0])
+            row.append(f"FE x {np.abs(fm[1] - fo[1]).max():.2e} v {np.abs(fm[2] - fo[2]).max():.2e}")
+            if step % args.every == 0 or step == 1:
+                print(f"step {step}: " + "; ".join(row), flush=True)
 
 
 if __name__ == "__main__":

@@ -39,8 +39,9 @@ def warm_up_elements(mat, bodies):
     mesh_rate(x, hexes, body, rho0, np.ones(1), bodies.params, kind, coefficient)
     hourglass = fe.Hourglass(kind, coefficient, np.zeros((1, 12)), np.zeros(1))
     force = np.zeros((8, 3))
-    fe.element_forces(fe.ElementMesh(x, v, hexes, body), mat, bodies, hourglass, 1e-3,
-                      force, np.zeros(1))
+    for parts in (None, np.zeros((1, 8, 3))):       # summed in element order or not
+        fe.element_forces(fe.ElementMesh(x, v, hexes, body), mat, bodies, hourglass, 1e-3,
+                          force, np.zeros(1), parts)
     fe.external_forces(mass, np.zeros(3), np.full(8, -1, np.int32), np.zeros(1),
                        np.zeros((1, 3)), force)
     fe.advance_velocities(v, force, mass, np.zeros((8, 3), np.bool_), 1e-3)

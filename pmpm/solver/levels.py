@@ -70,6 +70,35 @@ class LevelState:
         self.kept[name] = layers.kept
         return layers
 
+    def add_rows(self, name, array, node, x, key, values):
+        """``array[node] += values`` row by row (``array`` (n_nodes, c) zeros, ``values``
+        (rows, c)); with layer-ordered sums, as a layered scatter adds: per node, the sum
+        over the cell layers along the slab axis of the points ``x`` (rows, 3) the rows
+        come from, in layer order, of each layer's rows added in ``key`` order (ties by
+        value), and the first layers' sums kept for :meth:`Hierarchy.sum_shared` of
+        ``name``."""
+        if not self.exact:
+            np.add.at(array, node, values)
+            return
+        b, lv, halo = self.block, self.level, self.level.halo
+        a = b.slab_axis
+        layer = np.floor((x[:, a] - lv.origin[a]) * lv.inv_h).astype(np.int64) - b.lo[a]
+        order = np.lexsort(tuple(values.T[::-1]) + (key, layer, node))
+        node, layer, values = node[order], layer[order], values[order]
+        first = np.ones(len(node), bool)
+        first[1:] = (node[1:] != node[:-1]) | (layer[1:] != layer[:-1])
+        sums = np.zeros((int(first.sum()), array.shape[1]))
+        np.add.at(sums, np.cumsum(first) - 1, values)      # each layer's rows in order
+        node, layer = node[first], layer[first]
+        np.add.at(array, node, sums)                        # the layers in order
+        starts = np.arange(b.shape[a] + 1, dtype=np.int64) * b.strides[a]
+        kept = layer_record(self.work, name, np.zeros(0, np.int64), b, starts, halo,
+                            array.shape[1]).kept
+        k = layer - halo
+        on = (k >= 0) & (k < kept.shape[0]) & (node < kept.shape[1])
+        kept[k[on], node[on]] = sums[on]
+        self.kept[name] = kept
+
     def kept_planes(self, name, width):
         """The kept first layers' sums of ``name`` as (layer, plane, n1, n2, c)."""
         b = self.block
