@@ -1,7 +1,9 @@
 """pytest-mpi (2 or more ranks): with layer-ordered sums (grid.exact_sums, the default)
 N ranks give the 1-rank answer to the bit: the Taylor bar, its particles crossing the
 slab planes, the slabs rebalanced and the particles re-sorted on the way, with the hats
-and with gimp. The control: summed in array order, the same runs part in the last bits.
+and with gimp; and the sphere rolling on the FEM plate (surface contact's grid sums, the
+FE nodes the ranks share). The control: summed in array order, the same runs part in
+the last bits.
 Run with: mpirun -n 2 python -m pytest --with-mpi tests/test_exact_sums_mpi.py"""
 import os
 
@@ -9,9 +11,10 @@ import numpy as np
 import pytest
 
 from runhelp import RUNS, set_up
-from test_conversion_mpi import by_id, comm_world
+from test_conversion_mpi import by_id, comm_world, state
 
 CASE = os.path.join(RUNS, "taylor_bar.yaml")
+ROLLING = os.path.join(RUNS, "sphere_rolling_fem.yaml")
 COARSE = ["params.cell=1.52", "params.refined=4.56", "decomposition.axis=z"]
 STEPS = 300
 
@@ -54,3 +57,24 @@ def test_summed_in_array_order_n_ranks_part_in_the_last_bits():
     assert np.array_equal(got[0], expected[0])
     scale = np.abs(expected[1]).max()
     assert 0 < np.abs(got[1] - expected[1]).max() < 1e-10 * scale
+
+
+def roll(overrides, world=None, steps=80):
+    """Particles (id, x, v, eps_p) and owned FE nodes (id, x, v, mass) by id after
+    ``steps`` steps of the rolling sphere, R = 4."""
+    sim = set_up(ROLLING, ["params.R=4"] + overrides, world)
+    for _ in range(steps):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+    return sim, state(sim, world)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_the_sphere_on_the_fem_plate_rolls_on_n_ranks_as_on_one_to_the_bit():
+    world = comm_world()
+    many, got = roll([], world)
+    _, expected = roll([])
+    for part, one in zip(got, expected):
+        for a, b in zip(part, one):
+            assert np.array_equal(a, b)
+    assert many.slabs.size >= 2 and many.elements.partners       # FE nodes are shared
+    assert np.abs(got[0][2]).max() > 0                           # the sphere moves
