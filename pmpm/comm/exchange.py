@@ -36,20 +36,22 @@ def sum_shared_planes_in_layer_order(world, planes, block, kept):
     ----------
     world : World
     planes : sequence of (neighbour_rank, (first, stop)), as for ``sum_shared_planes``
-    block : ndarray (n_axis, n1, n2, c), the nodal array with the slab axis first
-    kept : ndarray (stop - first, stop - first, n1, n2, c): the sums of this rank's
+    block : ndarray (n_axis, n1, n2, c), the nodal array with the slab axis first, or
+        a dict of span -> view (the contact slots of the shared planes)
+    kept : ndarray (stop - first,) + the lower span's shape: the sums of this rank's
         first ``stop - first`` cell layers on the planes it shares with the rank below
-        (unused without one)
+        (as many layers as the span has planes)
     """
     if not planes:
         return
     MPI = _mpi()
     requests, received = [], []
-    for neighbour, (first, stop) in planes:
+    for neighbour, span in planes:
         below = neighbour < world.rank
-        own = block[first:stop]
+        own = _planes(block, span)
         outgoing = kept if below else np.ascontiguousarray(own)
-        incoming = np.empty_like(own) if below else np.empty((stop - first,) + own.shape)
+        incoming = np.empty_like(own) if below else \
+            np.empty((span[1] - span[0],) + own.shape)
         requests.append(world.raw.Irecv(incoming, source=neighbour, tag=72))
         requests.append(world.raw.Isend(outgoing, dest=neighbour, tag=72))
         world.traffic.note("neighbour", outgoing.nbytes)

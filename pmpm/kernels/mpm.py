@@ -262,7 +262,7 @@ def _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
 
 @njit(cache=True)
 def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact, want,
-                      stresses, forces, layers=None):
+                      stresses, forces, layers=None, clayers=None):
     """The particle pass of the step: with ``stresses``, update every particle's stress
     from the nodal velocities ``gvel`` (Eq. 29 and the material kernel); with ``forces``,
     scatter its internal and external force (Eqs. 31-32) to ``force``. USF does both in
@@ -271,7 +271,8 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     grid (``forces`` False). At contact nodes a particle sees its own body's velocity
     ``cvel`` and its force also goes to its body's ``cforce``. ``h`` is the level's cell
     size. With ``layers`` (a LayerSums for ``force``, see ``pmpm.kernels.layered``) the
-    force sums are layer-ordered, the same on any rank count.
+    force sums are layer-ordered, the same on any rank count; ``clayers`` (one over the
+    contact slots, rows (n_slots, n_bodies * 3)) does the same for ``cforce``.
 
     Returns
     -------
@@ -287,6 +288,11 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     if contact is not None:
         slot_of, cvel, cforce = contact.slot_of, contact.cvel, contact.cforce
+        cacc, cflat, cshift = cforce, cforce.reshape((cforce.shape[0], cforce.shape[1] * 3)), 0
+        cstarts, cscratch, ckept = np.empty(0, np.int64), np.empty((0, 0)), np.empty((0, 0, 0))
+        if clayers is not None:
+            cstarts, cscratch, ckept = clayers.starts, clayers.scratch, clayers.kept
+            cacc = cscratch.reshape((cscratch.shape[0], cforce.shape[1], 3))
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
@@ -312,7 +318,11 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             if layer != current:
                 if current != NO_LAYER:
                     flush_layer(force, acc, starts, halo, kept, current)
+                    if contact is not None and clayers is not None:
+                        flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
                 current, shift = layer, starts[layer - halo]
+                if contact is not None and clayers is not None:
+                    cshift = cstarts[layer - halo]
         b = body[p]
         if rigid[b]:               # moves with its own velocity, which limits the step too
             if stresses:
@@ -404,9 +414,9 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                 acc[n - shift, 2] += f2
                 if contact is not None:
                     if slots[k] >= 0:
-                        cforce[slots[k], b, 0] += f0
-                        cforce[slots[k], b, 1] += f1
-                        cforce[slots[k], b, 2] += f2
+                        cacc[slots[k] - cshift, b, 0] += f0
+                        cacc[slots[k] - cshift, b, 1] += f1
+                        cacc[slots[k] - cshift, b, 2] += f2
             continue
         for a in range(3):          # f = w_c P_ab + w'_c Q_ab along each row of 3 nodes
             for j in range(3):
@@ -427,11 +437,13 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                     if contact is not None:
                         s = slot_of[n]
                         if s >= 0:
-                            cforce[s, b, 0] += f0
-                            cforce[s, b, 1] += f1
-                            cforce[s, b, 2] += f2
+                            cacc[s - cshift, b, 0] += f0
+                            cacc[s - cshift, b, 1] += f1
+                            cacc[s - cshift, b, 2] += f2
     if layers is not None and current != NO_LAYER:
         flush_layer(force, acc, starts, halo, kept, current)
+        if contact is not None and clayers is not None:
+            flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
     return fastest, bad
 
 

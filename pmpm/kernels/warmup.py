@@ -77,8 +77,8 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     # grid-coupled FE nodes None: an omitted argument would be another signature
     affine = np.zeros((1, 9)) if apic else None
     pairs = boundary.mirror_pairs(block)
-    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine) if contact else \
-        (None, None)
+    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine, shape_code) \
+        if contact else (None, None)
     order = np.zeros(1, np.int64)
     for layers in (None, warm_up_layers(order, mpm.NODAL_COMPONENTS, shape_code)):
         mpm.particles_to_grid(pts, rigid, geo, nodal, 0, None, layers)
@@ -88,8 +88,9 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, block, 0.0, gnew)
     for contact_view in (None, view) if contact else (None,):
         for layers in (None, warm_up_layers(order, 3, shape_code)):
+            clayers = None if layers is None or contact_view is None else layers
             mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
-                                  contact_view, 0, True, True, layers)
+                                  contact_view, 0, True, True, layers, clayers)
         mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, None)
         if apic:
             mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, affine)
@@ -150,17 +151,18 @@ def _converts(config):
     return any(b.convert for b in config.bodies)
 
 
-def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):
+def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR):
     """The contact kernels; returns the (empty) slots and view they leave."""
     mask, slot_of = np.zeros(N, np.int64), np.zeros(N, np.int64)
     contact.body_masks(pts, geo, mask, 0)
     slot_nodes = contact.number_contact_nodes(mask, slot_of)
     cnodal = np.zeros((0, 1, contact.CNODAL))
     cvel, cforce, cnew = np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1, 6))
-    contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, None)
+    for layers in (None, warm_up_layers(np.zeros(1, np.int64), contact.CNODAL, shape_code)):
+        contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, None, layers)
+        if affine is not None:
+            contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, affine, layers)
     boundary.mirror_masks(mask, boundary.mirror_pairs(block))
-    if affine is not None:
-        contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, affine)
     slots = ContactSlots(cnodal, slot_nodes, cvel, cvel.copy(), cforce, cnew)
     rules = PairRules(np.zeros((1, 1), np.int64), np.zeros((1, 1)), np.full((1, 1), np.inf))
     rigid = np.zeros(1, np.bool_)

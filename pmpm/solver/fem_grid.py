@@ -181,7 +181,7 @@ class FemGridNodes(BodyKind):
 
     def scatter_contact(self, state, slot_of, cnodal):
         kc.contact_particles_to_grid(self.pts, state.geometry, slot_of, cnodal, state.index,
-                                     None)
+                                     None, None)
 
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.pts, state.geometry, slot_of, cext, state.index)

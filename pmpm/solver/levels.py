@@ -43,6 +43,8 @@ class LevelState:
         #: whether the particles' scatters are layer-ordered (``pmpm.kernels.layered``)
         self.exact = False
         self.kept = {}
+        #: the first contact slot of each node plane (set by grid contact each step)
+        self.slot_starts = None
 
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
@@ -58,14 +60,18 @@ class LevelState:
         #: nodes beyond a plane of symmetry and their images (kernels.boundary)
         self.mirror = mirror_pairs(self.nodes) if lv.halo else NO_PAIRS
 
-    def layer_sums(self, name, width, order):
+    def layer_sums(self, name, width, order, starts=None):
         """The LayerSums record of a scatter into the nodal array ``name`` (``width``
         columns) in the particle ``order``, or None when the sums are not layer-ordered.
-        Its ``kept`` sums wait in ``self.kept[name]`` for :meth:`Hierarchy.sum_shared`."""
+        Its ``kept`` sums wait in ``self.kept[name]`` for :meth:`Hierarchy.sum_shared`.
+        ``starts``: the first row of each node plane (default: the nodes; the contact
+        slots give theirs)."""
         if not self.exact:
             return None
         b = self.block
-        starts = np.arange(b.shape[b.slab_axis] + 1, dtype=np.int64) * b.strides[b.slab_axis]
+        if starts is None:
+            starts = np.arange(b.shape[b.slab_axis] + 1, dtype=np.int64) * \
+                b.strides[b.slab_axis]
         layers = layer_record(self.work, name, order, b, starts, self.level.halo, width)
         self.kept[name] = layers.kept
         return layers
@@ -104,6 +110,12 @@ class LevelState:
         b = self.block
         kept = self.kept[name]
         return kept.reshape((kept.shape[0],) * 2 + tuple(b.shape[b.order][1:]) + (width,))
+
+    def kept_rows(self, name, shape):
+        """The kept first layers' sums of the slot array ``name`` as (layer, rows) +
+        ``shape`` (a slot's own shape)."""
+        kept = self.kept[name]
+        return kept.reshape(kept.shape[:2] + tuple(shape))
 
     def reflect(self, array, kinds, slot_of=None):
         """Reflect ``array`` (rows, c) or (rows, n_bodies, c) of this level's nodes (or

@@ -105,8 +105,10 @@ class ParticleBodies(BodyKind):
         kc.body_masks(self.points(), state.geometry, mask, state.index)
 
     def scatter_contact(self, state, slot_of, cnodal):
+        layers = state.layer_sums("cnodal", cnodal.shape[1] * cnodal.shape[2], self.order,
+                                  state.slot_starts)
         kc.contact_particles_to_grid(self.points(), state.geometry, slot_of, cnodal,
-                                     state.index, self.affine())
+                                     state.index, self.affine(), layers)
 
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.points(), state.geometry, slot_of, cext, state.index)
@@ -137,7 +139,9 @@ class ParticleBodies(BodyKind):
         fastest, bad = mpm.stress_and_forces(
             self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
             state.geometry, state.gvel, state.force, contact, state.index, stresses, forces,
-            state.layer_sums("force", 3, self.order) if forces else None)
+            state.layer_sums("force", 3, self.order) if forces else None,
+            state.layer_sums("cforce", contact.cforce.shape[1] * 3, self.order,
+                             state.slot_starts) if forces and contact is not None else None)
         self.note_fault(bad, FAILED_UPDATE)
         return fastest * lv.ratio
 
