@@ -462,6 +462,44 @@ def slab_cell_keys(x, origin, inv_h, n_cells, axis):
 
 
 @njit(cache=True)
+def canonical_keys(x, ids, origin, inv_h, n_cells, axis, keys):
+    """keys[p] = (cell of p with the slab ``axis`` slowest) * (largest id + 1) + id: one
+    int64 that orders the particles by cell, then id. Returns False (keys not written)
+    when that would not fit in 62 bits."""
+    span = 1
+    for p in range(ids.shape[0]):
+        span = max(span, ids[p] + 1)
+    if float(n_cells[0]) * float(n_cells[1]) * float(n_cells[2]) * float(span) >= 2.0 ** 62:
+        return False
+    cells = slab_cell_keys(x, origin, inv_h, n_cells, axis)
+    for p in range(ids.shape[0]):
+        keys[p] = cells[p] * span + ids[p]
+    return True
+
+
+@njit(cache=True)
+def sort_nearly_sorted(keys, order, most_moves):
+    """Reorder ``order`` (n,) int64, a permutation of the particles, by their ``keys``
+    (n,) in place, by insertion: O(n + moves) when ``order`` is almost sorted already
+    (the last step's order: few particles change cells in a step). Gives up after
+    ``most_moves`` moves and returns False (``order`` is then still a permutation; sort
+    it another way)."""
+    moves = 0
+    for i in range(1, order.shape[0]):
+        index = order[i]
+        key = keys[index]
+        j = i - 1
+        while j >= 0 and keys[order[j]] > key:
+            order[j + 1] = order[j]
+            j -= 1
+            moves += 1
+        order[j + 1] = index
+        if moves > most_moves:
+            return False
+    return True
+
+
+@njit(cache=True)
 def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner):
     """Owner rank of every particle (-1 when it left the grid box). Returns the number
     outside."""

@@ -96,6 +96,9 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
             mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, affine)
     x, level = pts.x, pts.level
     mpm.slab_cell_keys(x, geo.origin, 1.0, n_cells, 0)
+    keys = np.zeros(1, np.int64)
+    mpm.canonical_keys(x, np.zeros(1, np.int64), geo.origin, 1.0, n_cells, 0, keys)
+    mpm.sort_nearly_sorted(keys, np.zeros(1, np.int64), 4)
     cube_roots(np.ones(1))
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)

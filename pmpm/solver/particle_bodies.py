@@ -46,6 +46,7 @@ class ParticleBodies(BodyKind):
         self.fault = None
         #: the canonical order of the layer-ordered scatters (set by each mass scatter)
         self.order = np.zeros(0, np.int64)
+        self.order_of = None        # the id column self.order sorts
 
     # -- records --------------------------------------------------------------------
     def points(self):
@@ -89,11 +90,15 @@ class ParticleBodies(BodyKind):
         are then a contiguous run of the one-rank order, whatever migration appended
         (``pmpm.kernels.layered``)."""
         p = self.particles
-        cells = mpm.slab_cell_keys(p.x, origin, inv_h, n_cells, axis)
-        span = int(p.id.max()) + 1 if p.n else 1
-        if int(np.prod(n_cells)) * span < 2 ** 62:
-            return np.argsort(cells * span + p.id, kind="stable")
-        return np.lexsort((p.id, cells))
+        keys = self.work.empty("keys", p.n, 1, np.int64)[:, 0]
+        if not mpm.canonical_keys(p.x, p.id, origin, inv_h, n_cells, axis, keys):
+            return np.lexsort((p.id, mpm.slab_cell_keys(p.x, origin, inv_h, n_cells, axis)))
+        order = self.order.copy() if self.order_of is p.id and len(self.order) == p.n \
+            else np.arange(p.n, dtype=np.int64)     # the last step's, if still the same
+        self.order_of = p.id                         # columns (migration replaces them)
+        if mpm.sort_nearly_sorted(keys, order, 8 * p.n):
+            return order
+        return np.argsort(keys, kind="stable")
 
     def mark_occupied(self, coarse, occupied):
         """The coarse nodes of cells holding coarse particles (the tied-interface search)."""
