@@ -1,4 +1,4 @@
-"""pytest-mpi (2 or more ranks): with layer-ordered sums (grid.exact_sums, the default)
+"""pytest-mpi (2 or more ranks): with layer-ordered sums (grid.exact_sums: true)
 N ranks give the 1-rank answer to the bit: the Taylor bar, its particles crossing the
 slab planes, the slabs rebalanced and the particles re-sorted on the way, with the hats
 and with gimp; and the sphere rolling on the FEM plate (surface contact's grid sums, the
@@ -16,6 +16,7 @@ from test_conversion_mpi import by_id, comm_world, state
 CASE = os.path.join(RUNS, "taylor_bar.yaml")
 ROLLING = os.path.join(RUNS, "sphere_rolling_fem.yaml")
 COARSE = ["params.cell=1.52", "params.refined=4.56", "decomposition.axis=z"]
+EXACT = ["grid.exact_sums=true"]
 STEPS = 300
 
 
@@ -37,7 +38,7 @@ def run(overrides, world=None):
 @pytest.mark.parametrize("shape", ["linear", "gimp"])
 def test_n_ranks_give_the_one_rank_answer_to_the_bit(shape):
     world = comm_world()
-    sets = [f"grid.shape_functions={shape}"]
+    sets = EXACT + [f"grid.shape_functions={shape}"]
     many, got, start = run(sets, world)
     _, expected, _ = run(sets)
     for a, b in zip(got, expected):
@@ -51,7 +52,7 @@ def test_n_ranks_give_the_one_rank_answer_to_the_bit(shape):
 @pytest.mark.mpi(min_size=2)
 def test_summed_in_array_order_n_ranks_part_in_the_last_bits():
     world = comm_world()
-    sets = ["grid.exact_sums=false"]
+    sets = []                               # the default, grid.exact_sums: false
     _, got, _ = run(sets, world)
     _, expected, _ = run(sets)
     assert np.array_equal(got[0], expected[0])
@@ -71,8 +72,8 @@ def roll(overrides, world=None, steps=80):
 @pytest.mark.mpi(min_size=2)
 def test_the_sphere_on_the_fem_plate_rolls_on_n_ranks_as_on_one_to_the_bit():
     world = comm_world()
-    many, got = roll([], world)
-    _, expected = roll([])
+    many, got = roll(EXACT, world)
+    _, expected = roll(EXACT)
     for part, one in zip(got, expected):
         for a, b in zip(part, one):
             assert np.array_equal(a, b)

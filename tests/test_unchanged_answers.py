@@ -25,11 +25,3 @@ def test_final_state_is_bit_identical_to_the_code_before(tmp_path, name, ranks):
     assert got["sha256"] == expected["sha256"], (
         f"{name} on {ranks} rank(s) moved: sum of x {got['x_sum']!r} against "
         f"{expected['x_sum']!r}, sum of v {got['v_sum']!r} against {expected['v_sum']!r}")
-
-
-@pytest.mark.parametrize("name", sorted(n for n in COARSE if "window" not in n))
-def test_one_and_two_ranks_share_the_fingerprint_without_windows(name):
-    """Layer-ordered sums (grid.exact_sums, pmpm.kernels.layered): 2 ranks give the
-    1-rank final state to the bit in every case without refined windows (whose tied
-    interface keeps the array-order sums)."""
-    assert ANSWERS[name]["1"]["sha256"] == ANSWERS[name]["2"]["sha256"]

@@ -448,6 +448,18 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
 
 
 @njit(cache=True)
+def cell_keys(x, origin, inv_h, n_cells):
+    """Flat coarse cell index of each particle (for sorting particles by cell)."""
+    keys = np.empty(x.shape[0], np.int64)
+    for p in range(x.shape[0]):
+        i = np.int64(np.floor((x[p, 0] - origin[0]) * inv_h))
+        j = np.int64(np.floor((x[p, 1] - origin[1]) * inv_h))
+        k = np.int64(np.floor((x[p, 2] - origin[2]) * inv_h))
+        keys[p] = (i * n_cells[1] + j) * n_cells[2] + k
+    return keys
+
+
+@njit(cache=True)
 def slab_cell_keys(x, origin, inv_h, n_cells, axis):
     """Flat coarse cell index of each particle with the slab ``axis`` slowest (the cell
     layer along it leads, so that sorting by it orders the particles layer by layer)."""

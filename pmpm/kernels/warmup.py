@@ -31,6 +31,11 @@ def warm_up_layers(order, width, shape_code):
                      np.zeros((27, width)), np.zeros((1, 9, width)))
 
 
+def layer_variants(order, width, shape_code, exact):
+    """The ``layers`` arguments a scatter takes: None, and with ``exact`` a LayerSums."""
+    return (None, warm_up_layers(order, width, shape_code)) if exact else (None,)
+
+
 def warm_up_defaults():
     """Compile (or load) the step's kernels for the hats and for the default shape
     functions with the APIC variants, the FEM bodies' and couplings' with them: what
@@ -42,7 +47,7 @@ def warm_up_defaults():
 
 
 def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True,
-            **couplings):
+            exact=False, **couplings):
     """Return the seconds spent compiling or loading the kernels (for the shape functions
     ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels;
     with ``apic`` also the transfers' affine variants). ``contact``, ``ties`` and
@@ -51,7 +56,8 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     load from the cache, a second for all of them: :func:`kernels_of`). The keywords
     ``couplings`` (``fem``, ``surface``, ``node_contact``, ``fem_grid``, ``forces``,
     ``free_rigid``, true or false) take the FEM bodies', their couplings' and the force
-    log's kernels (pmpm.kernels.warmup_fem)."""
+    log's kernels (pmpm.kernels.warmup_fem). ``exact`` adds the layer-ordered sums'
+    variants (``grid.exact_sums``)."""
     started = time.perf_counter()
     refresh_kernel_caches()
     # 3 x 3 x 3 nodes: what a 27-node shape reaches from the point at (0.5, 0.5, 0.5)
@@ -77,17 +83,17 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     # grid-coupled FE nodes None: an omitted argument would be another signature
     affine = np.zeros((1, 9)) if apic else None
     pairs = boundary.mirror_pairs(block)
-    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine, shape_code) \
+    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine, shape_code, exact) \
         if contact else (None, None)
     order = np.zeros(1, np.int64)
-    for layers in (None, warm_up_layers(order, mpm.NODAL_COMPONENTS, shape_code)):
+    for layers in layer_variants(order, mpm.NODAL_COMPONENTS, shape_code, exact):
         mpm.particles_to_grid(pts, rigid, geo, nodal, 0, None, layers)
         if apic:
             mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine, layers)
     mpm.nodal_velocities(nodal, block, 0.0, gvel)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, block, 0.0, gnew)
     for contact_view in (None, view) if contact else (None,):
-        for layers in (None, warm_up_layers(order, 3, shape_code)):
+        for layers in layer_variants(order, 3, shape_code, exact):
             clayers = None if layers is None or contact_view is None else layers
             mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
                                   contact_view, 0, True, True, layers, clayers)
@@ -110,7 +116,8 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     if mirrors:
         warm_up_mirrors(block, pairs, nodal)
     warm_up_couplings(pts, geo, block, pairs, mat, bodies, (nodal, force, gvel, gnew),
-                      (slots, view) if contact else None, couplings, affine)
+                      (slots, view) if contact else None, dict(couplings, exact=exact),
+                      affine)
     return time.perf_counter() - started
 
 
@@ -135,7 +142,7 @@ def kernels_of(config):
                                      or _converts(config)),
             "node_contact": "surface" in couplings and sum(fem) > 1,
             "fem_grid": any(fem) and particles and contact and "grid" in couplings,
-            "forces": config.output.forces,
+            "forces": config.output.forces, "exact": config.grid.exact_sums,
             "free_rigid": contact and any(not f and b.free_axes
                                           for f, b in zip(fem, config.bodies))}
 
@@ -154,14 +161,15 @@ def _converts(config):
     return any(b.convert for b in config.bodies)
 
 
-def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR):
+def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR,
+                    exact=False):
     """The contact kernels; returns the (empty) slots and view they leave."""
     mask, slot_of = np.zeros(N, np.int64), np.zeros(N, np.int64)
     contact.body_masks(pts, geo, mask, 0)
     slot_nodes = contact.number_contact_nodes(mask, slot_of)
     cnodal = np.zeros((0, 1, contact.CNODAL))
     cvel, cforce, cnew = np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1, 6))
-    for layers in (None, warm_up_layers(np.zeros(1, np.int64), contact.CNODAL, shape_code)):
+    for layers in layer_variants(np.zeros(1, np.int64), contact.CNODAL, shape_code, exact):
         contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, None, layers)
         if affine is not None:
             contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, affine, layers)

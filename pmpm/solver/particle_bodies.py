@@ -47,6 +47,7 @@ class ParticleBodies(BodyKind):
         #: the canonical order of the layer-ordered scatters (set by each mass scatter)
         self.order = np.zeros(0, np.int64)
         self.order_of = None        # the id column self.order sorts
+        self.exact = False          # layer-ordered sums (set by the simulation)
 
     # -- records --------------------------------------------------------------------
     def points(self):
@@ -214,11 +215,15 @@ class ParticleBodies(BodyKind):
         return None
 
     def sort_by_cell(self, grid, axis=0):
-        """Order particles by coarse cell (the slab ``axis`` slowest), then id, so that
-        scatter and gather walk memory in order and the canonical order of the
-        layer-ordered sums stays close to the array order (cheap to sort)."""
-        self.particles.take(self.canonical_order(grid.origin, 1.0 / grid.h, grid.n_cells,
-                                                 axis))
+        """Order particles by coarse cell so that scatter and gather walk memory in order;
+        with layer-ordered sums by their canonical order (the slab ``axis`` slowest, then
+        id), which then stays close to the array order (cheap to sort each step)."""
+        p = self.particles
+        if self.exact:
+            p.take(self.canonical_order(grid.origin, 1.0 / grid.h, grid.n_cells, axis))
+            return
+        keys = mpm.cell_keys(p.x, grid.origin, 1.0 / grid.h, grid.n_cells)
+        p.take(np.argsort(keys, kind="stable"))
 
     # -- refinement (seed 000 Sec. 3.4) -------------------------------------------------
     def split_entering(self, ratios, id_base, id_stride):

@@ -100,6 +100,7 @@ class Simulation:
         self.all_kinds = [self.points] + ([elements] if elements else []) + list(nodes)
         self.grids.coarse.exact = config.grid.exact_sums and not self.windows and \
             [k for k in self.all_kinds if k.on_grid] == [self.points]
+        self.points.exact = self.grids.coarse.exact
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds, couplings,
                                make_scheme(config.time.scheme), self.refiner, m_tiny,
                                [self.conversion] if self.conversion else [])
@@ -150,7 +151,8 @@ class Simulation:
         meshes = build_meshes(config, case_dir)
         counts = initial_histograms(config, grid, x, meshes)
         slabs = choose_slabs(counts, world.size, config.decomposition.axis,
-                             slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
+                             slab_min_width(SHAPE_CODES[config.grid.shape_functions]),
+                             config.grid.exact_sums)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
         return grid, filled, slabs, mine, meshes
 
