@@ -449,19 +449,35 @@ def release_open_gaps(slots, cext, cvol, release, half_width, m_tiny, block):
 
 
 @njit(cache=True)
-def contact_volumes(pts, volume, geo, slot_of, cvol, want):
+def contact_volumes(pts, volume, geo, slot_of, cvol, want, layers=None):
     """Each body's shape-function-weighted particle volume sum_p S_ip V_p at the contact
     nodes, in cells^3 (``volume``: the particles' current volumes), for the volume gap
     (:func:`volume_gap`). With particles that tile their body (uGIMP domains, or hats
     sampled at the particles) it is the integral of the node's trilinear hat over the
-    body's material."""
+    body's material. With ``layers`` (a LayerSums over the slots, rows (n_slots,
+    n_bodies)) the sums are layer-ordered (``pmpm.kernels.layered``)."""
     x, _, _, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
-    for p in range(x.shape[0]):
+    acc, count, current, shift = cvol, x.shape[0], NO_LAYER, 0
+    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
+    axis = halo = 0                       # unpacked: no record in the loop
+    if layers is not None:
+        order, axis, starts, halo = layers.order, layers.axis, layers.starts, layers.halo
+        acc, kept, count = layers.scratch, layers.kept, layers.order.shape[0]
+    for i in range(count):
+        p = i
+        if layers is not None:
+            p = order[i]
         if level[p] != want:
             continue
+        if layers is not None:
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
+            if layer != current:
+                if current != NO_LAYER:
+                    flush_layer(cvol, acc, starts, halo, kept, current)
+                current, shift = layer, starts[layer - halo]
         b, vp = body[p], volume[p] * inv_h ** 3
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
         for a in range(reach):
@@ -469,7 +485,9 @@ def contact_volumes(pts, volume, geo, slot_of, cvol, want):
                 for cc in range(reach):
                     s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
                     if s >= 0:
-                        cvol[s, b] += vp * axes[0, a] * axes[3, bb] * axes[6, cc]
+                        acc[s - shift, b] += vp * axes[0, a] * axes[3, bb] * axes[6, cc]
+    if layers is not None and current != NO_LAYER:
+        flush_layer(cvol, acc, starts, halo, kept, current)
 
 
 @njit(cache=True, inline="always")

@@ -183,7 +183,8 @@ def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR,
     cext = np.full((0, 1, contact.CEXT), -np.inf)
     contact.contact_extents(pts, geo, slot_of, cext, 0)
     cvol = np.zeros((0, 1))
-    contact.contact_volumes(pts, np.ones(len(pts.x)), geo, slot_of, cvol, 0)
+    for layers in layer_variants(np.zeros(1, np.int64), 1, shape_code, exact):
+        contact.contact_volumes(pts, np.ones(len(pts.x)), geo, slot_of, cvol, 0, layers)
     contact.release_open_gaps(slots, cext, cvol, np.zeros((1, 1)), geo.half_width, 0.0,
                               block)
     return slots, ContactView(slot_of, cvel, cforce, cnew)

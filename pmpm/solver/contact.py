@@ -272,9 +272,10 @@ class ContactFields:
         state.reflect(self.cnodal, CNODAL_KINDS, self.slot_of)
         if extents and volumes:
             self.cvol = self.slot_array("cvol", 1, n_bodies)[:, :, 0]
+            state.kept.pop("cvol", None)
             for kind in kinds:
                 kind.scatter_volumes(state, self.slot_of, self.cvol)
-            self.sum_on_shared_planes(state.block, self.cvol)
+            self.sum_on_shared_planes(state.block, self.cvol, state, "cvol")
             state.reflect(self.cvol, VOLUME_KINDS, self.slot_of)
         elif extents:
             self.cext = self.slot_array("cext", kc.CEXT, n_bodies, zero=False)

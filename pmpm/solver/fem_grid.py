@@ -191,7 +191,7 @@ class FemGridNodes(BodyKind):
         gap: the node sampling of the mesh's material, as hats sample particles."""
         rho0 = self.elements.table.params[self.pts.body, layout.RHO0]
         kc.contact_volumes(self.pts, self.pts.mass / rho0, state.geometry, slot_of, cvol,
-                           state.index)
+                           state.index, None)
 
     def stress_and_forces(self, state, dt, contact):
         """The nodes' forces f̃_K = m_K (v̄_K - v_K) / dt to the grid and their body's

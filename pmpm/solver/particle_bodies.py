@@ -123,7 +123,9 @@ class ParticleBodies(BodyKind):
         p = self.particles
         volume = self.work.empty("volume", p.n, 1)[:, 0]
         np.divide(p.mass, p.rho, out=volume)
-        kc.contact_volumes(self.points(), volume, state.geometry, slot_of, cvol, state.index)
+        kc.contact_volumes(self.points(), volume, state.geometry, slot_of, cvol, state.index,
+                           state.layer_sums("cvol", cvol.shape[1], self.order,
+                                            state.slot_starts))
 
     def stress_and_forces(self, state, dt, contact):
         """USF: stresses from the start-of-step nodal velocities and the nodal forces in one
