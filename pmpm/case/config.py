@@ -169,6 +169,7 @@ class GridConfig:
     boundary: ReadOnlyDict
     friction: ReadOnlyDict
     windows: tuple
+    exact_sums: bool
     lost_mass_fraction: float
 
     @classmethod

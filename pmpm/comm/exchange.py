@@ -23,6 +23,53 @@ def sum_shared_planes(world, planes, block):
     _combine_shared_planes(world, planes, block, np.add)
 
 
+def sum_shared_planes_in_layer_order(world, planes, block, kept):
+    """Complete the shared slab planes of a layer-ordered scatter (see
+    ``pmpm.kernels.layered``) so that they hold the one-rank sums to the bit.
+
+    The rank below sends its planes (the sums over its layers: the one-rank fold's
+    prefix), the rank above its first layers' sums ``kept`` on those planes; both then
+    compute ``((prefix + kept[0]) + kept[1]) + ...``, the same additions in the same
+    order as one rank, so both copies are identical and equal to one rank's.
+
+    Parameters
+    ----------
+    world : World
+    planes : sequence of (neighbour_rank, (first, stop)), as for ``sum_shared_planes``
+    block : ndarray (n_axis, n1, n2, c), the nodal array with the slab axis first, or
+        a dict of span -> view (the contact slots of the shared planes)
+    kept : ndarray (stop - first,) + the lower span's shape: the sums of this rank's
+        first ``stop - first`` cell layers on the planes it shares with the rank below
+        (as many layers as the span has planes)
+    """
+    if not planes:
+        return
+    MPI = _mpi()
+    requests, received = [], []
+    for neighbour, span in planes:
+        below = neighbour < world.rank
+        own = _planes(block, span)
+        outgoing = kept if below else np.ascontiguousarray(own)
+        incoming = np.empty_like(own) if below else \
+            np.empty((span[1] - span[0],) + own.shape)
+        requests.append(world.raw.Irecv(incoming, source=neighbour, tag=72))
+        requests.append(world.raw.Isend(outgoing, dest=neighbour, tag=72))
+        world.traffic.note("neighbour", outgoing.nbytes)
+        received.append((below, own, incoming, outgoing))
+    MPI.Request.Waitall(requests)
+    for below, own, incoming, outgoing in received:
+        own[...] = fold_layers(incoming, kept) if below else fold_layers(outgoing, incoming)
+
+
+def fold_layers(prefix, layers):
+    """``((prefix + layers[0]) + layers[1]) + ...``: the lower rank's sums continued with
+    the upper rank's layer sums, in layer order (a new array)."""
+    total = prefix.copy()
+    for layer in layers:
+        total += layer
+    return total
+
+
 def or_shared_planes(world, planes, block):
     """Like ``sum_shared_planes`` for integer bit masks: OR in the neighbours' bits."""
     _combine_shared_planes(world, planes, block, np.bitwise_or)

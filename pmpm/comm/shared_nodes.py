@@ -36,6 +36,51 @@ def sum_shared_rows(world, values, partners):
     return total
 
 
+def sum_shared_rows_in_element_order(world, values, partners, hexes, element_id,
+                                     contributions):
+    """Like :func:`sum_shared_rows`, to the bit of one rank: a shared node's total is
+    the sum, from 0, of the contributions of every sharer's elements to it in global
+    element id order, which is the order one rank adds them in (its elements are held
+    in id order, ``element_forces`` adds them in array order).
+
+    Parameters
+    ----------
+    values : (n, k) this rank's sums on its nodes (those on shared nodes are replaced)
+    partners : as for :func:`sum_shared_rows`
+    hexes : (n_elements, 8) local node of each element corner
+    element_id : (n_elements,) global ids
+    contributions : (n_elements, 8, k) each element's part of ``values`` at each corner
+    """
+    if not partners:
+        return values
+    shared = np.zeros(len(values), bool)
+    for _, idx in partners:
+        shared[idx] = True
+    e, k = np.nonzero(shared[hexes])
+    nodes, ids, parts = hexes[e, k], element_id[e], contributions[e, k]
+    received = swap_with(world, [rank for rank, _ in partners],
+                         {rank: _on_partner_nodes(idx, nodes, ids, parts, len(values))
+                          for rank, idx in partners}, tag=TAG + 1)
+    for rank, idx in partners:
+        position, their_ids, their_parts = received[rank][world.rank]
+        nodes = np.concatenate([nodes, idx[position]])
+        ids, parts = np.concatenate([ids, their_ids]), np.concatenate([parts, their_parts])
+    order = np.lexsort((ids, nodes))
+    total = values.copy()
+    total[shared] = 0.0
+    np.add.at(total, nodes[order], parts[order])        # in order, one row at a time
+    return total
+
+
+def _on_partner_nodes(idx, nodes, ids, parts, n_nodes):
+    """(position in the partner's shared list, element id, contribution) of the rows on
+    the nodes ``idx`` shared with one partner."""
+    position = np.full(n_nodes, -1, np.int64)
+    position[idx] = np.arange(len(idx))
+    on = position[nodes] >= 0
+    return position[nodes[on]], ids[on], parts[on]
+
+
 def swap_with(world, ranks, payload, tag=80):
     """Send ``payload`` (a picklable object) to every rank of ``ranks`` and return what
     each of them sent here, {rank: object}. Every rank of ``ranks`` must call it with

@@ -71,14 +71,22 @@ def balanced_bounds(cell_counts, n_ranks, min_width=1):
     return bounds
 
 
-def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto", min_width=1):
+def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto", min_width=1,
+                 like_two_ranks=False):
     """Pick the slab axis (given, or the one that balances best, ties to the smaller
-    cut plane) and its balanced bounds, each slab at least ``min_width`` cells wide.
+    cut plane) and its balanced bounds, each slab at least ``min_width`` cells wide;
+    with ``like_two_ranks``, one rank's ``auto`` is the axis of two ranks (the
+    layer-ordered sums run along it).
     ``cell_counts_per_axis`` holds three histograms. Raises SetupError, naming
     ``decomposition.axis``, when no candidate axis has enough cell layers for every
     rank."""
     candidates = range(3) if axis == "auto" else [AXES.index(axis)]
     layers = max(len(cell_counts_per_axis[a]) for a in candidates)
+    if like_two_ranks and n_ranks == 1 and axis == "auto" and layers >= 2 * min_width:
+        # the axis two ranks would cut: the layer-ordered sums (pmpm.kernels.layered) run
+        # along the slab axis, so one rank then adds in the order two ranks do
+        axis = AXES[choose_slabs(cell_counts_per_axis, 2, axis, min_width).axis]
+        candidates = [AXES.index(axis)]
     if layers < n_ranks * min_width:
         raise SetupError([_too_many_ranks(axis, layers, n_ranks, min_width)])
     best = None

@@ -56,11 +56,13 @@ Hourglass = namedtuple("Hourglass", "kind coefficient resist energy")
 
 
 @njit(cache=True)
-def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None):
+def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contributions=None):
     """Stress update and internal plus hourglass forces of every element, added to
     ``force`` (n, 3); with ``rates`` (n_elements,) each element's own stable rate too
     (0 for a rigid body's or a failed update, inf for an inverted element: the
-    conversion on the step, pmpm.solver.conversion, reads it).
+    conversion on the step, pmpm.solver.conversion, reads it); with ``contributions``
+    (n_elements, 8, 3), zeros, each element's nodal forces too (for sums over the
+    nodes ranks share in element order, pmpm.comm.shared_nodes).
 
     Parameters
     ----------
@@ -142,6 +144,10 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None):
             n = hexes[e, k]
             for i in range(3):
                 force[n, i] += fe[k, i]
+        if contributions is not None:
+            for k in range(8):
+                for i in range(3):
+                    contributions[e, k, i] = fe[k, i]
     return rate, bad, why
 
 

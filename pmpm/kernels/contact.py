@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 
 from .affine import affine_velocity_matrix
+from .layered import NO_LAYER, flush_layer, layer_plane
 from .boundary import constrain_coded, mirrors
 from .shape import point_axes
 
@@ -70,20 +71,41 @@ def number_contact_nodes(mask, slot_of):
 
 
 @njit(cache=True)
-def contact_particles_to_grid(pts, geo, slot_of, cnodal, want, affine=None):
+def contact_particles_to_grid(pts, geo, slot_of, cnodal, want, affine=None, layers=None):
     """Each body's mass, momentum, mass gradient (Eqs. 27-28, 9) and mass-weighted
     offset from the node (in cells) at the contact nodes, from the points with
     ``level[p] == want``. With ``affine`` (APIC, ``pmpm.kernels.affine``) the momentum
     carries the particle's affine velocity as in ``pmpm.kernels.mpm.particles_to_grid``,
-    so that each body's momentum sums to the shared field's."""
+    so that each body's momentum sums to the shared field's. With ``layers`` (a
+    LayerSums over the slots, rows (n_slots, n_bodies * CNODAL)) the sums are
+    layer-ordered (``pmpm.kernels.layered``), the same on any rank count."""
     x, v, mass, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
     M = np.zeros((3, 3))
-    for p in range(x.shape[0]):
+    nb = cnodal.shape[1]
+    flat = cnodal.reshape((cnodal.shape[0], nb * CNODAL))
+    acc, count, current, shift = cnodal, x.shape[0], NO_LAYER, 0
+    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
+    axis = halo = 0                       # unpacked: no record in the loop
+    scratch = np.empty((0, 0))
+    if layers is not None:
+        order, axis, starts, halo = layers.order, layers.axis, layers.starts, layers.halo
+        scratch, kept, count = layers.scratch, layers.kept, layers.order.shape[0]
+        acc = scratch.reshape((scratch.shape[0], nb, CNODAL))
+    for i in range(count):
+        p = i
+        if layers is not None:
+            p = order[i]
         if level[p] != want:
             continue
+        if layers is not None:
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
+            if layer != current:
+                if current != NO_LAYER:
+                    flush_layer(flat, scratch, starts, halo, kept, current)
+                current, shift = layer, starts[layer - halo]
         b, m = body[p], mass[p]
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
         if affine is not None:
@@ -94,24 +116,27 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want, affine=None):
                     s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
                     if s < 0:
                         continue
+                    s -= shift
                     wx, wy, wz = axes[0, a], axes[3, bb], axes[6, cc]
                     mw = m * wx * wy * wz
-                    cnodal[s, b, 0] += mw
+                    acc[s, b, 0] += mw
                     if affine is not None:
                         e0, e1, e2 = -axes[2, a], -axes[5, bb], -axes[8, cc]
                         for d in range(3):
-                            cnodal[s, b, 1 + d] += mw * (v[p, d] + M[d, 0] * e0
-                                                         + M[d, 1] * e1 + M[d, 2] * e2)
+                            acc[s, b, 1 + d] += mw * (v[p, d] + M[d, 0] * e0
+                                                      + M[d, 1] * e1 + M[d, 2] * e2)
                     else:
-                        cnodal[s, b, 1] += mw * v[p, 0]
-                        cnodal[s, b, 2] += mw * v[p, 1]
-                        cnodal[s, b, 3] += mw * v[p, 2]
-                    cnodal[s, b, 4] += m * (axes[1, a] * inv_h) * wy * wz
-                    cnodal[s, b, 5] += m * wx * (axes[4, bb] * inv_h) * wz
-                    cnodal[s, b, 6] += m * wx * wy * (axes[7, cc] * inv_h)
-                    cnodal[s, b, 7] += mw * axes[2, a]
-                    cnodal[s, b, 8] += mw * axes[5, bb]
-                    cnodal[s, b, 9] += mw * axes[8, cc]
+                        acc[s, b, 1] += mw * v[p, 0]
+                        acc[s, b, 2] += mw * v[p, 1]
+                        acc[s, b, 3] += mw * v[p, 2]
+                    acc[s, b, 4] += m * (axes[1, a] * inv_h) * wy * wz
+                    acc[s, b, 5] += m * wx * (axes[4, bb] * inv_h) * wz
+                    acc[s, b, 6] += m * wx * wy * (axes[7, cc] * inv_h)
+                    acc[s, b, 7] += mw * axes[2, a]
+                    acc[s, b, 8] += mw * axes[5, bb]
+                    acc[s, b, 9] += mw * axes[8, cc]
+    if layers is not None and current != NO_LAYER:
+        flush_layer(flat, scratch, starts, halo, kept, current)
 
 
 @njit(cache=True, inline="always")
@@ -424,19 +449,35 @@ def release_open_gaps(slots, cext, cvol, release, half_width, m_tiny, block):
 
 
 @njit(cache=True)
-def contact_volumes(pts, volume, geo, slot_of, cvol, want):
+def contact_volumes(pts, volume, geo, slot_of, cvol, want, layers=None):
     """Each body's shape-function-weighted particle volume sum_p S_ip V_p at the contact
     nodes, in cells^3 (``volume``: the particles' current volumes), for the volume gap
     (:func:`volume_gap`). With particles that tile their body (uGIMP domains, or hats
     sampled at the particles) it is the integral of the node's trilinear hat over the
-    body's material."""
+    body's material. With ``layers`` (a LayerSums over the slots, rows (n_slots,
+    n_bodies)) the sums are layer-ordered (``pmpm.kernels.layered``)."""
     x, _, _, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
-    for p in range(x.shape[0]):
+    acc, count, current, shift = cvol, x.shape[0], NO_LAYER, 0
+    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
+    axis = halo = 0                       # unpacked: no record in the loop
+    if layers is not None:
+        order, axis, starts, halo = layers.order, layers.axis, layers.starts, layers.halo
+        acc, kept, count = layers.scratch, layers.kept, layers.order.shape[0]
+    for i in range(count):
+        p = i
+        if layers is not None:
+            p = order[i]
         if level[p] != want:
             continue
+        if layers is not None:
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
+            if layer != current:
+                if current != NO_LAYER:
+                    flush_layer(cvol, acc, starts, halo, kept, current)
+                current, shift = layer, starts[layer - halo]
         b, vp = body[p], volume[p] * inv_h ** 3
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
         for a in range(reach):
@@ -444,7 +485,9 @@ def contact_volumes(pts, volume, geo, slot_of, cvol, want):
                 for cc in range(reach):
                     s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
                     if s >= 0:
-                        cvol[s, b] += vp * axes[0, a] * axes[3, bb] * axes[6, cc]
+                        acc[s - shift, b] += vp * axes[0, a] * axes[3, bb] * axes[6, cc]
+    if layers is not None and current != NO_LAYER:
+        flush_layer(cvol, acc, starts, halo, kept, current)
 
 
 @njit(cache=True, inline="always")

@@ -24,25 +24,43 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
+from .layered import NO_LAYER, flush_layer, layer_plane
 from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
 
 
 @njit(cache=True)
-def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
+def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
     """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots.
     With ``affine`` (the particles' A_p, (n, 9), see ``pmpm.kernels.affine``; 27-node
     shapes only) a deformable particle's momentum at node i is m_p w_ip (v_p +
-    B_p D_p^{-1} (x_i - x_p)) (APIC)."""
+    B_p D_p^{-1} (x_i - x_p)) (APIC). With ``layers`` (a LayerSums, see
+    ``pmpm.kernels.layered``) the sums are layer-ordered, the same on any rank count."""
     x, v, mass, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e, M = np.zeros((MAX_NODES, 3)), np.zeros((3, 3))
-    for p in range(x.shape[0]):
+    acc, count, current, shift = nodal, x.shape[0], NO_LAYER, 0
+    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
+    axis = halo = 0                       # unpacked: no record in the loop
+    if layers is not None:
+        acc, order, axis = layers.scratch, layers.order, layers.axis
+        starts, halo, kept = layers.starts, layers.halo, layers.kept
+        count = order.shape[0]
+    for i in range(count):
+        p = i
+        if layers is not None:
+            p = order[i]
         if level[p] != want:
             continue
+        if layers is not None:
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
+            if layer != current:
+                if current != NO_LAYER:
+                    flush_layer(nodal, acc, starts, halo, kept, current)
+                current, shift = layer, starts[layer - halo]
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
         if shape != LINEAR and affine is None:      # the tensor product, row by row
@@ -54,34 +72,37 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None):
                     wab = axes[0, a] * axes[3, j]
                     row = base + a * strides[0] + j * strides[1]
                     for t in range(3):
-                        n, mw = row + t * strides[2], m * (wab * axes[6, t])
-                        nodal[n, slot] += mw
-                        nodal[n, slot + 1] += mw * v0
-                        nodal[n, slot + 2] += mw * v1
-                        nodal[n, slot + 3] += mw * v2
+                        n, mw = row + t * strides[2] - shift, m * (wab * axes[6, t])
+                        acc[n, slot] += mw
+                        acc[n, slot + 1] += mw * v0
+                        acc[n, slot + 2] += mw * v1
+                        acc[n, slot + 3] += mw * v2
             continue
         reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
                         nodes, w)
         if affine is not None and slot == 0:
             node_offsets(axes, e)
             affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
-            _scatter_affine(nodal, nodes, w, e, reach, m, v[p, 0], v[p, 1], v[p, 2], M)
+            _scatter_affine(acc, nodes, shift, w, e, reach, m, v[p, 0], v[p, 1], v[p, 2], M)
             continue
         for k in range(reach):
-            n, mw = nodes[k], m * w[k]
-            nodal[n, slot] += mw
-            nodal[n, slot + 1] += mw * v[p, 0]
-            nodal[n, slot + 2] += mw * v[p, 1]
-            nodal[n, slot + 3] += mw * v[p, 2]
+            n, mw = nodes[k] - shift, m * w[k]
+            acc[n, slot] += mw
+            acc[n, slot + 1] += mw * v[p, 0]
+            acc[n, slot + 2] += mw * v[p, 1]
+            acc[n, slot + 3] += mw * v[p, 2]
+    if layers is not None and current != NO_LAYER:
+        flush_layer(nodal, acc, starts, halo, kept, current)
 
 
 @njit(cache=True, inline="always")
-def _scatter_affine(nodal, nodes, w, e, reach, m, v0, v1, v2, M):
-    """Mass and the momentum m w_k (v + M e_k) of one particle onto its nodes."""
+def _scatter_affine(nodal, nodes, shift, w, e, reach, m, v0, v1, v2, M):
+    """Mass and the momentum m w_k (v + M e_k) of one particle onto its nodes (row
+    ``nodes[k] - shift`` of ``nodal``)."""
     m00, m01, m02, m10, m11, m12 = M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2]
     m20, m21, m22 = M[2, 0], M[2, 1], M[2, 2]
     for k in range(reach):
-        n, mw = nodes[k], m * w[k]
+        n, mw = nodes[k] - shift, m * w[k]
         e0, e1, e2 = e[k, 0], e[k, 1], e[k, 2]
         nodal[n, 0] += mw
         nodal[n, 1] += mw * (v0 + m00 * e0 + m01 * e1 + m02 * e2)
@@ -241,7 +262,7 @@ def _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
 
 @njit(cache=True)
 def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact, want,
-                      stresses, forces):
+                      stresses, forces, layers=None, clayers=None):
     """The particle pass of the step: with ``stresses``, update every particle's stress
     from the nodal velocities ``gvel`` (Eq. 29 and the material kernel); with ``forces``,
     scatter its internal and external force (Eqs. 31-32) to ``force``. USF does both in
@@ -249,7 +270,9 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     after the particles move updates the stresses from the velocities mapped back to the
     grid (``forces`` False). At contact nodes a particle sees its own body's velocity
     ``cvel`` and its force also goes to its body's ``cforce``. ``h`` is the level's cell
-    size.
+    size. With ``layers`` (a LayerSums for ``force``, see ``pmpm.kernels.layered``) the
+    force sums are layer-ordered, the same on any rank count; ``clayers`` (one over the
+    contact slots, rows (n_slots, n_bodies * 3)) does the same for ``cforce``.
 
     Returns
     -------
@@ -265,6 +288,11 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     if contact is not None:
         slot_of, cvel, cforce = contact.slot_of, contact.cvel, contact.cforce
+        cacc, cflat, cshift = cforce, cforce.reshape((cforce.shape[0], cforce.shape[1] * 3)), 0
+        cstarts, cscratch, ckept = np.empty(0, np.int64), np.empty((0, 0)), np.empty((0, 0, 0))
+        if clayers is not None:
+            cstarts, cscratch, ckept = clayers.starts, clayers.scratch, clayers.kept
+            cacc = cscratch.reshape((cscratch.shape[0], cforce.shape[1], 3))
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
                      np.empty(MAX_NODES))
@@ -272,9 +300,29 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     base, reach = 0, MAX_NODES
-    for p in range(x.shape[0]):
+    acc, count, current, shift = force, x.shape[0], NO_LAYER, 0
+    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
+    axis = halo = 0                       # unpacked: no record in the loop
+    if layers is not None:
+        acc, order, axis = layers.scratch, layers.order, layers.axis
+        starts, halo, kept = layers.starts, layers.halo, layers.kept
+        count = order.shape[0]
+    for i in range(count):
+        p = i
+        if layers is not None:
+            p = order[i]
         if level[p] != want:
             continue
+        if layers is not None:
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
+            if layer != current:
+                if current != NO_LAYER:
+                    flush_layer(force, acc, starts, halo, kept, current)
+                    if contact is not None and clayers is not None:
+                        flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
+                current, shift = layer, starts[layer - halo]
+                if contact is not None and clayers is not None:
+                    cshift = cstarts[layer - halo]
         b = body[p]
         if rigid[b]:               # moves with its own velocity, which limits the step too
             if stresses:
@@ -361,14 +409,14 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                 f0 = w[k] * ex - vol * (sxx * gx[k] + sxy * gy[k] + szx * gz[k])
                 f1 = w[k] * ey - vol * (sxy * gx[k] + syy * gy[k] + syz * gz[k])
                 f2 = w[k] * ez - vol * (szx * gx[k] + syz * gy[k] + szz * gz[k])
-                force[n, 0] += f0
-                force[n, 1] += f1
-                force[n, 2] += f2
+                acc[n - shift, 0] += f0
+                acc[n - shift, 1] += f1
+                acc[n - shift, 2] += f2
                 if contact is not None:
                     if slots[k] >= 0:
-                        cforce[slots[k], b, 0] += f0
-                        cforce[slots[k], b, 1] += f1
-                        cforce[slots[k], b, 2] += f2
+                        cacc[slots[k] - cshift, b, 0] += f0
+                        cacc[slots[k] - cshift, b, 1] += f1
+                        cacc[slots[k] - cshift, b, 2] += f2
             continue
         for a in range(3):          # f = w_c P_ab + w'_c Q_ab along each row of 3 nodes
             for j in range(3):
@@ -383,15 +431,19 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                     n = row + t * strides[2]
                     wc, dc = axes[6, t], axes[7, t]
                     f0, f1, f2 = wc * p0 + dc * q0, wc * p1 + dc * q1, wc * p2 + dc * q2
-                    force[n, 0] += f0
-                    force[n, 1] += f1
-                    force[n, 2] += f2
+                    acc[n - shift, 0] += f0
+                    acc[n - shift, 1] += f1
+                    acc[n - shift, 2] += f2
                     if contact is not None:
                         s = slot_of[n]
                         if s >= 0:
-                            cforce[s, b, 0] += f0
-                            cforce[s, b, 1] += f1
-                            cforce[s, b, 2] += f2
+                            cacc[s - cshift, b, 0] += f0
+                            cacc[s - cshift, b, 1] += f1
+                            cacc[s - cshift, b, 2] += f2
+    if layers is not None and current != NO_LAYER:
+        flush_layer(force, acc, starts, halo, kept, current)
+        if contact is not None and clayers is not None:
+            flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
     return fastest, bad
 
 
@@ -405,6 +457,58 @@ def cell_keys(x, origin, inv_h, n_cells):
         k = np.int64(np.floor((x[p, 2] - origin[2]) * inv_h))
         keys[p] = (i * n_cells[1] + j) * n_cells[2] + k
     return keys
+
+
+@njit(cache=True)
+def slab_cell_keys(x, origin, inv_h, n_cells, axis):
+    """Flat coarse cell index of each particle with the slab ``axis`` slowest (the cell
+    layer along it leads, so that sorting by it orders the particles layer by layer)."""
+    a, b = (1, 2) if axis == 0 else ((0, 2) if axis == 1 else (0, 1))
+    keys = np.empty(x.shape[0], np.int64)
+    for p in range(x.shape[0]):
+        i = np.int64(np.floor((x[p, axis] - origin[axis]) * inv_h))
+        j = np.int64(np.floor((x[p, a] - origin[a]) * inv_h))
+        k = np.int64(np.floor((x[p, b] - origin[b]) * inv_h))
+        keys[p] = (i * n_cells[a] + j) * n_cells[b] + k
+    return keys
+
+
+@njit(cache=True)
+def canonical_keys(x, ids, origin, inv_h, n_cells, axis, keys):
+    """keys[p] = (cell of p with the slab ``axis`` slowest) * (largest id + 1) + id: one
+    int64 that orders the particles by cell, then id. Returns False (keys not written)
+    when that would not fit in 62 bits."""
+    span = 1
+    for p in range(ids.shape[0]):
+        span = max(span, ids[p] + 1)
+    if float(n_cells[0]) * float(n_cells[1]) * float(n_cells[2]) * float(span) >= 2.0 ** 62:
+        return False
+    cells = slab_cell_keys(x, origin, inv_h, n_cells, axis)
+    for p in range(ids.shape[0]):
+        keys[p] = cells[p] * span + ids[p]
+    return True
+
+
+@njit(cache=True)
+def sort_nearly_sorted(keys, order, most_moves):
+    """Reorder ``order`` (n,) int64, a permutation of the particles, by their ``keys``
+    (n,) in place, by insertion: O(n + moves) when ``order`` is almost sorted already
+    (the last step's order: few particles change cells in a step). Gives up after
+    ``most_moves`` moves and returns False (``order`` is then still a permutation; sort
+    it another way)."""
+    moves = 0
+    for i in range(1, order.shape[0]):
+        index = order[i]
+        key = keys[index]
+        j = i - 1
+        while j >= 0 and keys[order[j]] > key:
+            order[j + 1] = order[j]
+            j -= 1
+            moves += 1
+        order[j + 1] = index
+        if moves > most_moves:
+            return False
+    return True
 
 
 @njit(cache=True)

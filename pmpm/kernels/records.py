@@ -29,6 +29,12 @@ NodeBlock = namedtuple("NodeBlock", "shape lo strides n_cells boundary faces fri
 #: (n,) int32, and ``level`` (n,) int32, the grid level each point maps to.
 PointState = namedtuple("PointState", "x v mass body level")
 
+#: A layer-ordered scatter (``pmpm.kernels.layered``): the particles' canonical
+#: ``order`` (n,), the slab ``axis``, the first row of each node plane ``starts``
+#: (n_planes + 1,), the shape's ``halo``, the ``scratch`` window (rows, c) and the
+#: ``kept`` first layers' sums (layers, rows, c).
+LayerSums = namedtuple("LayerSums", "order axis starts halo scratch kept")
+
 #: Per body: material ``codes`` (nb,), packed ``params`` (nb, N_SLOTS), ``rigid`` (nb,).
 BodyMaterials = namedtuple("BodyMaterials", "codes params rigid")
 
@@ -55,4 +61,4 @@ PairRules = namedtuple("PairRules", "master friction separation")
 TieSet = namedtuple("TieSet", "slaves masters weights count")
 
 __all__ = ["GridGeometry", "NodeBlock", "PointState", "BodyMaterials", "ExternalLoads",
-           "ContactView", "ContactSlots", "PairRules", "TieSet", "MaterialState"]
+           "ContactView", "ContactSlots", "PairRules", "TieSet", "LayerSums", "MaterialState"]

@@ -10,10 +10,10 @@ from ..materials.state import MaterialState
 from . import boundary, contact, mpm, observe, tied
 from .cache import refresh_kernel_caches
 from .portable import cube_roots
-from .shape import LINEAR, MARKERS, SHAPE_CODES
+from .shape import HALO, LINEAR, MARKERS, SHAPE_CODES
 from .warmup_fem import warm_up_couplings
 from .records import (BodyMaterials, ContactSlots, ContactView, ExternalLoads, GridGeometry,
-                      NodeBlock, PairRules, PointState, TieSet)
+                      LayerSums, NodeBlock, PairRules, PointState, TieSet)
 
 N = 27   # nodes of the warm-up block
 
@@ -22,6 +22,18 @@ N = 27   # nodes of the warm-up block
 #: couplings, the force log (pmpm.kernels.warmup_fem)
 ALL_COUPLINGS = {"fem": True, "surface": True, "node_contact": True, "fem_grid": True,
                  "forces": True, "free_rigid": True}
+
+
+def warm_up_layers(order, width, shape_code):
+    """A LayerSums record over the warm-up block (its 3 node planes of 9 nodes)."""
+    halo = HALO[shape_code]
+    return LayerSums(order, 0, np.arange(4, dtype=np.int64) * 9, halo,
+                     np.zeros((27, width)), np.zeros((1, 9, width)))
+
+
+def layer_variants(order, width, shape_code, exact):
+    """The ``layers`` arguments a scatter takes: None, and with ``exact`` a LayerSums."""
+    return (None, warm_up_layers(order, width, shape_code)) if exact else (None,)
 
 
 def warm_up_defaults():
@@ -35,7 +47,7 @@ def warm_up_defaults():
 
 
 def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True,
-            **couplings):
+            exact=False, **couplings):
     """Return the seconds spent compiling or loading the kernels (for the shape functions
     ``shape_code``, a ``pmpm.kernels.shape`` code: each shape has its own compiled kernels;
     with ``apic`` also the transfers' affine variants). ``contact``, ``ties`` and
@@ -44,7 +56,8 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     load from the cache, a second for all of them: :func:`kernels_of`). The keywords
     ``couplings`` (``fem``, ``surface``, ``node_contact``, ``fem_grid``, ``forces``,
     ``free_rigid``, true or false) take the FEM bodies', their couplings' and the force
-    log's kernels (pmpm.kernels.warmup_fem)."""
+    log's kernels (pmpm.kernels.warmup_fem). ``exact`` adds the layer-ordered sums'
+    variants (``grid.exact_sums``)."""
     started = time.perf_counter()
     refresh_kernel_caches()
     # 3 x 3 x 3 nodes: what a 27-node shape reaches from the point at (0.5, 0.5, 0.5)
@@ -70,21 +83,28 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     # grid-coupled FE nodes None: an omitted argument would be another signature
     affine = np.zeros((1, 9)) if apic else None
     pairs = boundary.mirror_pairs(block)
-    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine) if contact else \
-        (None, None)
-    mpm.particles_to_grid(pts, rigid, geo, nodal, 0, None)
-    if apic:
-        mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine)
+    slots, view = warm_up_contact(pts, geo, block, gvel, gnew, affine, shape_code, exact) \
+        if contact else (None, None)
+    order = np.zeros(1, np.int64)
+    for layers in layer_variants(order, mpm.NODAL_COMPONENTS, shape_code, exact):
+        mpm.particles_to_grid(pts, rigid, geo, nodal, 0, None, layers)
+        if apic:
+            mpm.particles_to_grid(pts, rigid, geo, nodal, 0, affine, layers)
     mpm.nodal_velocities(nodal, block, 0.0, gvel)
     mpm.integrate_nodes(nodal, force, gvel, 1e-3, block, 0.0, gnew)
     for contact_view in (None, view) if contact else (None,):
-        mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
-                              contact_view, 0, True, True)
+        for layers in layer_variants(order, 3, shape_code, exact):
+            clayers = None if layers is None or contact_view is None else layers
+            mpm.stress_and_forces(pts, mat, bodies, loads, 1e-3, 1.0, geo, gvel, force,
+                                  contact_view, 0, True, True, layers, clayers)
         mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, None)
         if apic:
             mpm.grid_to_particles(pts, rigid, 1e-3, geo, gnew, contact_view, 0, 0.0, affine)
     x, level = pts.x, pts.level
-    mpm.cell_keys(x, geo.origin, 1.0, n_cells)
+    mpm.slab_cell_keys(x, geo.origin, 1.0, n_cells, 0)
+    keys = np.zeros(1, np.int64)
+    mpm.canonical_keys(x, np.zeros(1, np.int64), geo.origin, 1.0, n_cells, 0, keys)
+    mpm.sort_nearly_sorted(keys, np.zeros(1, np.int64), 4)
     cube_roots(np.ones(1))
     ones, zeros3 = np.ones(1), np.zeros((1, 3))
     observe.body_sums(pts.body, ones, x, zeros3, ones, ones, ones, 1)   # history rows
@@ -100,7 +120,8 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     if mirrors:
         warm_up_mirrors(block, pairs, nodal)
     warm_up_couplings(pts, geo, block, pairs, mat, bodies, (nodal, force, gvel, gnew),
-                      (slots, view) if contact else None, couplings, affine)
+                      (slots, view) if contact else None, dict(couplings, exact=exact),
+                      affine)
     return time.perf_counter() - started
 
 
@@ -125,7 +146,7 @@ def kernels_of(config):
                                      or _converts(config)),
             "node_contact": "surface" in couplings and sum(fem) > 1,
             "fem_grid": any(fem) and particles and contact and "grid" in couplings,
-            "forces": config.output.forces,
+            "forces": config.output.forces, "exact": config.grid.exact_sums,
             "free_rigid": contact and any(not f and b.free_axes
                                           for f, b in zip(fem, config.bodies))}
 
@@ -144,17 +165,19 @@ def _converts(config):
     return any(b.convert for b in config.bodies)
 
 
-def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):
+def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR,
+                    exact=False):
     """The contact kernels; returns the (empty) slots and view they leave."""
     mask, slot_of = np.zeros(N, np.int64), np.zeros(N, np.int64)
     contact.body_masks(pts, geo, mask, 0)
     slot_nodes = contact.number_contact_nodes(mask, slot_of)
     cnodal = np.zeros((0, 1, contact.CNODAL))
     cvel, cforce, cnew = np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1, 6))
-    contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, None)
+    for layers in layer_variants(np.zeros(1, np.int64), contact.CNODAL, shape_code, exact):
+        contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, None, layers)
+        if affine is not None:
+            contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, affine, layers)
     boundary.mirror_masks(mask, boundary.mirror_pairs(block))
-    if affine is not None:
-        contact.contact_particles_to_grid(pts, geo, slot_of, cnodal, 0, affine)
     slots = ContactSlots(cnodal, slot_nodes, cvel, cvel.copy(), cforce, cnew)
     rules = PairRules(np.zeros((1, 1), np.int64), np.zeros((1, 1)), np.full((1, 1), np.inf))
     rigid = np.zeros(1, np.bool_)
@@ -164,7 +187,8 @@ def warm_up_contact(pts, geo, block, gvel, gnew, affine=None):
     cext = np.full((0, 1, contact.CEXT), -np.inf)
     contact.contact_extents(pts, geo, slot_of, cext, 0)
     cvol = np.zeros((0, 1))
-    contact.contact_volumes(pts, np.ones(len(pts.x)), geo, slot_of, cvol, 0)
+    for layers in layer_variants(np.zeros(1, np.int64), 1, shape_code, exact):
+        contact.contact_volumes(pts, np.ones(len(pts.x)), geo, slot_of, cvol, 0, layers)
     contact.release_open_gaps(slots, cext, cvol, np.zeros((1, 1)), geo.half_width, 0.0,
                               block)
     return slots, ContactView(slot_of, cvel, cforce, cnew)

@@ -24,7 +24,7 @@ CUBE = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
                  [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], np.float64)
 
 
-def warm_up_elements(mat, bodies):
+def warm_up_elements(mat, bodies, exact=False):
     """The element kernels (pmpm.fem: set-up volumes, masses and stable rate, the step's
     element forces, loads and central-difference update) on one unit-cube element with
     the material state ``mat`` and table ``bodies`` of the MPM warm-up. One kernel serves
@@ -39,8 +39,9 @@ def warm_up_elements(mat, bodies):
     mesh_rate(x, hexes, body, rho0, np.ones(1), bodies.params, kind, coefficient)
     hourglass = fe.Hourglass(kind, coefficient, np.zeros((1, 12)), np.zeros(1))
     force = np.zeros((8, 3))
-    fe.element_forces(fe.ElementMesh(x, v, hexes, body), mat, bodies, hourglass, 1e-3,
-                      force, np.zeros(1))
+    for parts in (None, np.zeros((1, 8, 3))) if exact else (None,):   # grid.exact_sums
+        fe.element_forces(fe.ElementMesh(x, v, hexes, body), mat, bodies, hourglass, 1e-3,
+                          force, np.zeros(1), parts)
     fe.external_forces(mass, np.zeros(3), np.full(8, -1, np.int32), np.zeros(1),
                        np.zeros((1, 3)), force)
     fe.advance_velocities(v, force, mass, np.zeros((8, 3), np.bool_), 1e-3)
@@ -177,7 +178,7 @@ def warm_up_couplings(pts, geo, block, pairs, mat, bodies, grids, contact_state,
     nodal, force, gvel, gnew = grids
     slots, view = contact_state or (None, None)
     if kinds.get("fem"):
-        warm_up_elements(mat, bodies)
+        warm_up_elements(mat, bodies, kinds.get("exact", False))
     if kinds.get("surface"):
         warm_up_surface((pts, geo, block, nodal, gnew, affine))
     if kinds.get("node_contact"):

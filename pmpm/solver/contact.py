@@ -4,7 +4,8 @@ nodes. The node loops are in ``pmpm.kernels.contact``."""
 import numpy as np
 
 from ..comm import sum_shared_planes
-from ..comm.exchange import max_shared_planes, or_shared_planes
+from ..comm.exchange import (max_shared_planes, or_shared_planes,
+                             sum_shared_planes_in_layer_order)
 from ..kernels import contact as kc
 from ..kernels.boundary import column_kinds, mirror_extents, mirror_masks
 from ..kernels import tied
@@ -172,11 +173,12 @@ class GridContact(Coupling):
                 kc.release_open_gaps(f.slots(), f.cext, f.cvol, self.rules.release,
                                      s.geometry.half_width, self.m_tiny, s.nodes)
             f.cforce = f.slot_array("cforce", 3, nb)
+            s.kept.pop("cforce", None)         # until a layered force scatter keeps some
 
     def after_integrate(self, grids, dt):
         for s in grids:
             f = self.fields[s.index]
-            f.sum_on_shared_planes(s.block, f.cforce)
+            f.sum_on_shared_planes(s.block, f.cforce, s, "cforce")
             s.reflect(f.cforce, CFORCE_KINDS, f.slot_of)
             f.cnew = f.slot_array("cnew", kc.CNEW, f.cnodal.shape[1], zero=False)
             kc.contact_end(f.slots(), s.gvel, s.gnew, self.pairs, self.bodies.grid_rigid,
@@ -225,6 +227,10 @@ class ContactFields:
         self.slot_of = np.empty(block.n_nodes, np.int64)
         self.slot_nodes = kc.number_contact_nodes(mask, self.slot_of)
         self.plane_slots = self._plane_slot_ranges(block)
+        plane = block.strides[block.slab_axis]
+        #: the first slot of each node plane, for layer-ordered scatters into slots
+        state.slot_starts = np.searchsorted(
+            self.slot_nodes, np.arange(block.shape[block.slab_axis] + 1) * plane)
 
     def _plane_slot_ranges(self, block):
         per_plane = block.n_nodes // max(int(block.shape[block.slab_axis]), 1)
@@ -235,9 +241,15 @@ class ContactFields:
                             int(np.searchsorted(self.slot_nodes, last)))
         return ranges
 
-    def sum_on_shared_planes(self, block, array):
+    def sum_on_shared_planes(self, block, array, state=None, name=None):
+        """Sum the slot array on the shared planes; in layer order (to the bit of one
+        rank) where ``state`` holds the kept layers of ``name``'s layered scatter."""
         views = {span: array[a:b] for span, (a, b) in self.plane_slots.items()}
-        sum_shared_planes(self.world, block.shared_planes, views)
+        if state is not None and state.exact and name in state.kept:
+            sum_shared_planes_in_layer_order(self.world, block.shared_planes, views,
+                                             state.kept_rows(name, array.shape[1:]))
+        else:
+            sum_shared_planes(self.world, block.shared_planes, views)
 
     def slot_array(self, name, width, n_bodies, zero=True):
         rows = len(self.slot_nodes)
@@ -251,17 +263,19 @@ class ContactFields:
         weighted volumes instead (``cvol``, for the release rule's volume gap)."""
         self.find_contact_nodes(kinds, state)
         self.cnodal = self.slot_array("cnodal", kc.CNODAL, n_bodies)
+        state.kept.pop("cnodal", None)
         for kind in kinds:
             kind.scatter_contact(state, self.slot_of, self.cnodal)
-        self.sum_on_shared_planes(state.block, self.cnodal)
+        self.sum_on_shared_planes(state.block, self.cnodal, state, "cnodal")
         # what each body's own particles put on the nodes (the force histories)
         self.real_mass = kept_copy(self.real_mass, self.cnodal[:, :, 0])
         state.reflect(self.cnodal, CNODAL_KINDS, self.slot_of)
         if extents and volumes:
             self.cvol = self.slot_array("cvol", 1, n_bodies)[:, :, 0]
+            state.kept.pop("cvol", None)
             for kind in kinds:
                 kind.scatter_volumes(state, self.slot_of, self.cvol)
-            self.sum_on_shared_planes(state.block, self.cvol)
+            self.sum_on_shared_planes(state.block, self.cvol, state, "cvol")
             state.reflect(self.cvol, VOLUME_KINDS, self.slot_of)
         elif extents:
             self.cext = self.slot_array("cext", kc.CEXT, n_bodies, zero=False)

@@ -31,7 +31,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..comm.shared_nodes import sum_shared_rows
+from ..comm.shared_nodes import sum_shared_rows, sum_shared_rows_in_element_order
 from ..comm.sparse import exchange_arrays
 from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
                             NON_POSITIVE_VOLUME, ElementMesh, Hourglass, advance_positions,
@@ -95,6 +95,8 @@ class FemBodies(BodyKind):
         self.materials = BodyMaterials(table.codes, table.params, table.rigid)
         self.weight_of_body = body_weights(config, table.rigid)
         self.speed, self.fault = 0.0, None
+        #: shared nodes' forces summed in element order, as one rank adds them
+        self.exact = config.grid.exact_sums
         self.converted_hourglass = 0.0     # of this rank's elements that became particles
         self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
         self.force_log = None             # solver.forces.ForceLog, set by the simulation
@@ -346,9 +348,15 @@ class FemBodies(BodyKind):
         element's."""
         self.force[:] = 0.0
         self.rates = np.zeros(len(self.hexes))
+        exact = self.exact and bool(self.partners)
+        parts = np.zeros((len(self.hexes), 8, 3)) if exact else None
         rate, bad, why = element_forces(self.mesh(), self.state, self.materials,
-                                        self.hourglass, dt, self.force, self.rates)
-        self.force = sum_shared_rows(self.world, self.force, self.partners)
+                                        self.hourglass, dt, self.force, self.rates, parts)
+        if exact:
+            self.force = sum_shared_rows_in_element_order(
+                self.world, self.force, self.partners, self.hexes, self.element_id, parts)
+        else:
+            self.force = sum_shared_rows(self.world, self.force, self.partners)
         external_forces(self.mass, self.gravity, self.load, self.load_scale,
                         self.load_vectors, self.force)
         if self.materials.rigid.any():

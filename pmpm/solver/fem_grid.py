@@ -168,7 +168,8 @@ class FemGridNodes(BodyKind):
         if state.index == 0:
             self.gather()
         mpm.particles_to_grid(self.pts, self.rigid, state.geometry, state.nodal, state.index,
-                              None)       # no affine matrices: the warm-up's signature
+                              None, None)   # no affine matrices, no layers: the warm-up's
+                                            # signature
 
     def mark_occupied(self, coarse, occupied):
         g = coarse.geometry
@@ -180,7 +181,7 @@ class FemGridNodes(BodyKind):
 
     def scatter_contact(self, state, slot_of, cnodal):
         kc.contact_particles_to_grid(self.pts, state.geometry, slot_of, cnodal, state.index,
-                                     None)
+                                     None, None)
 
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.pts, state.geometry, slot_of, cext, state.index)
@@ -190,7 +191,7 @@ class FemGridNodes(BodyKind):
         gap: the node sampling of the mesh's material, as hats sample particles."""
         rho0 = self.elements.table.params[self.pts.body, layout.RHO0]
         kc.contact_volumes(self.pts, self.pts.mass / rho0, state.geometry, slot_of, cvol,
-                           state.index)
+                           state.index, None)
 
     def stress_and_forces(self, state, dt, contact):
         """The nodes' forces f̃_K = m_K (v̄_K - v_K) / dt to the grid and their body's

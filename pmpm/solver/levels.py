@@ -3,10 +3,11 @@ its node block and nodal arrays (seed 000 Sec. 3.1)."""
 import numpy as np
 
 from ..comm import sum_shared_planes
+from ..comm.exchange import sum_shared_planes_in_layer_order
 from ..kernels import mpm
 from ..kernels.boundary import fill_face_codes, mirror_pairs, mirror_rows
 from ..kernels.shape import MARKERS
-from ..kernels.records import GridGeometry, NodeBlock
+from ..kernels.records import GridGeometry, LayerSums, NodeBlock
 from .workspace import Workspace
 
 NO_PAIRS = np.zeros((0, 3), np.int64)
@@ -39,6 +40,11 @@ class LevelState:
         self.tied = None
         self.block = None
         self.faces = np.zeros(0, np.uint16)
+        #: whether the particles' scatters are layer-ordered (``pmpm.kernels.layered``)
+        self.exact = False
+        self.kept = {}
+        #: the first contact slot of each node plane (set by grid contact each step)
+        self.slot_starts = None
 
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
@@ -54,6 +60,63 @@ class LevelState:
         #: nodes beyond a plane of symmetry and their images (kernels.boundary)
         self.mirror = mirror_pairs(self.nodes) if lv.halo else NO_PAIRS
 
+    def layer_sums(self, name, width, order, starts=None):
+        """The LayerSums record of a scatter into the nodal array ``name`` (``width``
+        columns) in the particle ``order``, or None when the sums are not layer-ordered.
+        Its ``kept`` sums wait in ``self.kept[name]`` for :meth:`Hierarchy.sum_shared`.
+        ``starts``: the first row of each node plane (default: the nodes; the contact
+        slots give theirs)."""
+        if not self.exact:
+            return None
+        b = self.block
+        if starts is None:
+            starts = np.arange(b.shape[b.slab_axis] + 1, dtype=np.int64) * \
+                b.strides[b.slab_axis]
+        layers = layer_record(self.work, name, order, b, starts, self.level.halo, width)
+        self.kept[name] = layers.kept
+        return layers
+
+    def add_rows(self, name, array, node, x, key, values):
+        """``array[node] += values`` row by row (``array`` (n_nodes, c) zeros, ``values``
+        (rows, c)); with layer-ordered sums, as a layered scatter adds: per node, the sum
+        over the cell layers along the slab axis of the points ``x`` (rows, 3) the rows
+        come from, in layer order, of each layer's rows added in ``key`` order (ties by
+        value), and the first layers' sums kept for :meth:`Hierarchy.sum_shared` of
+        ``name``."""
+        if not self.exact:
+            np.add.at(array, node, values)
+            return
+        b, lv, halo = self.block, self.level, self.level.halo
+        a = b.slab_axis
+        layer = np.floor((x[:, a] - lv.origin[a]) * lv.inv_h).astype(np.int64) - b.lo[a]
+        order = np.lexsort(tuple(values.T[::-1]) + (key, layer, node))
+        node, layer, values = node[order], layer[order], values[order]
+        first = np.ones(len(node), bool)
+        first[1:] = (node[1:] != node[:-1]) | (layer[1:] != layer[:-1])
+        sums = np.zeros((int(first.sum()), array.shape[1]))
+        np.add.at(sums, np.cumsum(first) - 1, values)      # each layer's rows in order
+        node, layer = node[first], layer[first]
+        np.add.at(array, node, sums)                        # the layers in order
+        starts = np.arange(b.shape[a] + 1, dtype=np.int64) * b.strides[a]
+        kept = layer_record(self.work, name, np.zeros(0, np.int64), b, starts, halo,
+                            array.shape[1]).kept
+        k = layer - halo
+        on = (k >= 0) & (k < kept.shape[0]) & (node < kept.shape[1])
+        kept[k[on], node[on]] = sums[on]
+        self.kept[name] = kept
+
+    def kept_planes(self, name, width):
+        """The kept first layers' sums of ``name`` as (layer, plane, n1, n2, c)."""
+        b = self.block
+        kept = self.kept[name]
+        return kept.reshape((kept.shape[0],) * 2 + tuple(b.shape[b.order][1:]) + (width,))
+
+    def kept_rows(self, name, shape):
+        """The kept first layers' sums of the slot array ``name`` as (layer, rows) +
+        ``shape`` (a slot's own shape)."""
+        kept = self.kept[name]
+        return kept.reshape(kept.shape[:2] + tuple(shape))
+
     def reflect(self, array, kinds, slot_of=None):
         """Reflect ``array`` (rows, c) or (rows, n_bodies, c) of this level's nodes (or
         of the contact slots ``slot_of``) across the planes of symmetry, its columns of
@@ -61,6 +124,23 @@ class LevelState:
         if len(self.mirror):
             mirror_rows(as_rows(array, len(kinds)), kinds, self.mirror, self.nodes.boundary,
                         slot_of, self.tied)
+
+
+def layer_record(work, name, order, block, starts, halo, width):
+    """A LayerSums record (``pmpm.kernels.layered``) over the rows ``starts`` gives each
+    node plane of ``block`` (nodes, or contact slots), its buffers from ``work``: kept
+    layers only where the block shares planes with the rank below."""
+    window = 2 + 2 * halo
+    n_planes = len(starts) - 1
+    reach = min(window, n_planes)
+    rows = int(np.max(starts[reach:] - starts[:len(starts) - reach])) if n_planes else 0
+    scratch = work.zeros(name + "_layer", rows, width)
+    below = any(span[0] == 0 for _, span in block.shared_planes)
+    n_kept = 2 * halo + 1 if below else 0
+    kept_rows = int(starts[min(n_kept, n_planes)])
+    kept = work.zeros(name + "_kept", n_kept * kept_rows, width)
+    return LayerSums(order, block.slab_axis, starts, halo, scratch,
+                     kept.reshape(n_kept, kept_rows, width))
 
 
 class Hierarchy:
@@ -98,7 +178,12 @@ class Hierarchy:
         """Sum the nodal array ``name`` on the slab planes shared with neighbours."""
         for s in self.states:
             b = s.block
-            sum_shared_planes(self.world, b.shared_planes, b.as_planes(getattr(s, name)))
+            array = getattr(s, name)
+            if s.exact and name in s.kept:          # a layer-ordered scatter's array
+                sum_shared_planes_in_layer_order(self.world, b.shared_planes, b.as_planes(array),
+                                                 s.kept_planes(name, array.shape[1]))
+            else:
+                sum_shared_planes(self.world, b.shared_planes, b.as_planes(array))
 
     def reflect(self, name, kinds):
         """Reflect the nodal array ``name`` across the box faces that are planes of

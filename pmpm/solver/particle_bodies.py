@@ -45,6 +45,10 @@ class ParticleBodies(BodyKind):
         self.level_of = np.zeros(0, np.int32)
         self.work = Workspace()
         self.fault = None
+        #: the canonical order of the layer-ordered scatters (set by each mass scatter)
+        self.order = np.zeros(0, np.int64)
+        self.order_of = None        # the id column self.order sorts
+        self.exact = False          # layer-ordered sums (set by the simulation)
 
     # -- records --------------------------------------------------------------------
     def points(self):
@@ -76,8 +80,27 @@ class ParticleBodies(BodyKind):
 
     # -- phases ------------------------------------------------------------------------
     def scatter_mass_momentum(self, state):
+        if state.exact and state.index == 0:       # the points' positions of this scatter
+            self.order = self.canonical_order(state.level.origin, state.level.inv_h,
+                                              state.level.n_cells, state.block.slab_axis)
         mpm.particles_to_grid(self.points(), self.bodies.rigid, state.geometry, state.nodal,
-                              state.index, self.affine())
+                              state.index, self.affine(),
+                              state.layer_sums("nodal", mpm.NODAL_COMPONENTS, self.order))
+
+    def canonical_order(self, origin, inv_h, n_cells, axis):
+        """The particles by (cell with the slab ``axis`` slowest, id): a rank's particles
+        are then a contiguous run of the one-rank order, whatever migration appended
+        (``pmpm.kernels.layered``)."""
+        p = self.particles
+        keys = self.work.empty("keys", p.n, 1, np.int64)[:, 0]
+        if not mpm.canonical_keys(p.x, p.id, origin, inv_h, n_cells, axis, keys):
+            return np.lexsort((p.id, mpm.slab_cell_keys(p.x, origin, inv_h, n_cells, axis)))
+        order = self.order.copy() if self.order_of is p.id and len(self.order) == p.n \
+            else np.arange(p.n, dtype=np.int64)     # the last step's, if still the same
+        self.order_of = p.id                         # columns (migration replaces them)
+        if mpm.sort_nearly_sorted(keys, order, 8 * p.n):
+            return order
+        return np.argsort(keys, kind="stable")
 
     def mark_occupied(self, coarse, occupied):
         """The coarse nodes of cells holding coarse particles (the tied-interface search)."""
@@ -89,8 +112,10 @@ class ParticleBodies(BodyKind):
         kc.body_masks(self.points(), state.geometry, mask, state.index)
 
     def scatter_contact(self, state, slot_of, cnodal):
+        layers = state.layer_sums("cnodal", cnodal.shape[1] * cnodal.shape[2], self.order,
+                                  state.slot_starts)
         kc.contact_particles_to_grid(self.points(), state.geometry, slot_of, cnodal,
-                                     state.index, self.affine())
+                                     state.index, self.affine(), layers)
 
     def scatter_extents(self, state, slot_of, cext):
         kc.contact_extents(self.points(), state.geometry, slot_of, cext, state.index)
@@ -99,7 +124,9 @@ class ParticleBodies(BodyKind):
         p = self.particles
         volume = self.work.empty("volume", p.n, 1)[:, 0]
         np.divide(p.mass, p.rho, out=volume)
-        kc.contact_volumes(self.points(), volume, state.geometry, slot_of, cvol, state.index)
+        kc.contact_volumes(self.points(), volume, state.geometry, slot_of, cvol, state.index,
+                           state.layer_sums("cvol", cvol.shape[1], self.order,
+                                            state.slot_starts))
 
     def stress_and_forces(self, state, dt, contact):
         """USF: stresses from the start-of-step nodal velocities and the nodal forces in one
@@ -120,7 +147,10 @@ class ParticleBodies(BodyKind):
         lv = state.level
         fastest, bad = mpm.stress_and_forces(
             self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
-            state.geometry, state.gvel, state.force, contact, state.index, stresses, forces)
+            state.geometry, state.gvel, state.force, contact, state.index, stresses, forces,
+            state.layer_sums("force", 3, self.order) if forces else None,
+            state.layer_sums("cforce", contact.cforce.shape[1] * 3, self.order,
+                             state.slot_starts) if forces and contact is not None else None)
         self.note_fault(bad, FAILED_UPDATE)
         return fastest * lv.ratio
 
@@ -187,9 +217,14 @@ class ParticleBodies(BodyKind):
         """None: a particle counts 1 in the slabs' balance (solver.work_weights)."""
         return None
 
-    def sort_by_cell(self, grid):
-        """Order particles by coarse cell so scatter and gather walk memory in order."""
+    def sort_by_cell(self, grid, axis=0):
+        """Order particles by coarse cell so that scatter and gather walk memory in order;
+        with layer-ordered sums by their canonical order (the slab ``axis`` slowest, then
+        id), which then stays close to the array order (cheap to sort each step)."""
         p = self.particles
+        if self.exact:
+            p.take(self.canonical_order(grid.origin, 1.0 / grid.h, grid.n_cells, axis))
+            return
         keys = mpm.cell_keys(p.x, grid.origin, 1.0 / grid.h, grid.n_cells)
         p.take(np.argsort(keys, kind="stable"))
 

@@ -73,6 +73,9 @@ class Simulation:
         #: every body kind, in the order their parts are summed (solver.kinds)
         self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
             + self.parts_of(KIND)
+        self.grids.coarse.exact = config.grid.exact_sums and not self.windows and \
+            [k for k in self.all_kinds if k.on_grid] == [self.points]
+        self.points.exact = self.grids.coarse.exact
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds,
                                setup.couplings, make_scheme(config.time.scheme),
                                self.refiner, m_tiny, transfers)
@@ -108,7 +111,8 @@ class Simulation:
         meshes = build_meshes(config, case_dir)
         counts = initial_histograms(config, grid, x, meshes)
         slabs = choose_slabs(counts, world.size, config.decomposition.axis,
-                             slab_min_width(SHAPE_CODES[config.grid.shape_functions]))
+                             slab_min_width(SHAPE_CODES[config.grid.shape_functions]),
+                             config.grid.exact_sums)
         mine = slabs.owner_of_cells(grid.cells_of(x)[:, slabs.axis]) == world.rank
         return grid, filled, slabs, mine, meshes
 
@@ -181,7 +185,7 @@ class Simulation:
 
     def sort_by_cell(self):
         for kind in self.kinds:
-            kind.sort_by_cell(self.grid)
+            kind.sort_by_cell(self.grid, self.slabs.axis)
 
     def rebalance(self, threshold):
         """Rebalance the slabs; FEM elements whose centroid left their rank's slab

@@ -293,7 +293,9 @@ class SurfaceContact(Coupling):
                                   np.ascontiguousarray(normals[k]), s.geometry,
                                   node, pair, weight)
             rows.append((node[:n], k[pair[:n]], weight[:n]))
-            np.add.at(s.sc_share[:, 0], node[:n], weight[:n])
+            particle = pair_p[k[pair[:n]]]
+            s.add_rows("sc_share", s.sc_share, node[:n], self.start_x[particle],
+                       p.id[particle], weight[:n, None])
         grids.sum_shared("sc_share")
         grids.reflect("sc_share", SCALAR_KINDS)
         return rows
@@ -329,7 +331,9 @@ class SurfaceContact(Coupling):
             ksc.node_pair_impulses(node, k, weight, mass, share, s.gnew[:, :3], seg_s,
                                    pair["geo"], seg_v, seg_inv_m, pair["friction"],
                                    row_impulses)
-            np.add.at(s.sc_impulse, node, -row_impulses)
+            particle = pair["p"][k]
+            s.add_rows("sc_impulse", s.sc_impulse, node, self.start_x[particle],
+                       p.id[particle], -row_impulses)
             np.add.at(impulses, k, row_impulses)
             if self.force_log is not None:       # before the velocities change
                 self.log_rows(s, (node, k, weight), row_impulses, pair)

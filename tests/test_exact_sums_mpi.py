@@ -1,0 +1,106 @@
+"""pytest-mpi (2 or more ranks): with layer-ordered sums (grid.exact_sums: true)
+N ranks give the 1-rank answer to the bit: the Taylor bar, its particles crossing the
+slab planes, the slabs rebalanced and the particles re-sorted on the way, with the hats
+and with gimp; and the sphere rolling on the FEM plate (surface contact's grid sums, the
+FE nodes the ranks share). The control: summed in array order, the same runs part in
+the last bits.
+Run with: mpirun -n 2 python -m pytest --with-mpi tests/test_exact_sums_mpi.py"""
+import os
+
+import numpy as np
+import pytest
+
+from runhelp import RUNS, set_up
+from test_conversion_mpi import by_id, comm_world, state
+
+CASE = os.path.join(RUNS, "taylor_bar.yaml")
+ROLLING = os.path.join(RUNS, "sphere_rolling_fem.yaml")
+COARSE = ["params.cell=1.52", "params.refined=4.56", "decomposition.axis=z"]
+EXACT = ["grid.exact_sums=true"]
+STEPS = 300
+
+
+def run(overrides, world=None):
+    """The state by particle id after STEPS steps of the run loop's CFL step, sorting
+    and rebalancing as the run loop does (more often)."""
+    sim = set_up(CASE, COARSE + overrides, world)
+    start = sim.particles.x[:, 2].copy(), sim.particles.id.copy()
+    for step in range(1, STEPS + 1):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+        if step % 10 == 0:
+            sim.sort_by_cell()
+            sim.rebalance(0.02)
+    p = sim.particles
+    return sim, by_id(world, p.id, p.x, p.v, p.stress), by_id(world, start[1], start[0])
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.parametrize("shape", ["linear", "gimp"])
+def test_n_ranks_give_the_one_rank_answer_to_the_bit(shape):
+    world = comm_world()
+    sets = EXACT + [f"grid.shape_functions={shape}"]
+    many, got, start = run(sets, world)
+    _, expected, _ = run(sets)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    cells = [np.floor((z - many.grid.origin[2]) / many.grid.h) for z in (start[1], got[1][:, 2])]
+    owner_then, owner_now = (many.slabs.owner_of_cells(c) for c in cells)
+    assert (owner_then != owner_now).any()            # particles changed rank
+    assert np.abs(got[3]).max() > 100.0               # a plastic impact (MPa)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_summed_in_array_order_n_ranks_part_in_the_last_bits():
+    world = comm_world()
+    sets = []                               # the default, grid.exact_sums: false
+    _, got, _ = run(sets, world)
+    _, expected, _ = run(sets)
+    assert np.array_equal(got[0], expected[0])
+    scale = np.abs(expected[1]).max()
+    assert 0 < np.abs(got[1] - expected[1]).max() < 1e-10 * scale
+
+
+def roll(overrides, world=None, steps=80):
+    """Particles (id, x, v, eps_p) and owned FE nodes (id, x, v, mass) by id after
+    ``steps`` steps of the rolling sphere, R = 4."""
+    sim = set_up(ROLLING, ["params.R=4"] + overrides, world)
+    for _ in range(steps):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+    return sim, state(sim, world)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_the_sphere_on_the_fem_plate_rolls_on_n_ranks_as_on_one_to_the_bit():
+    world = comm_world()
+    many, got = roll(EXACT, world)
+    _, expected = roll(EXACT)
+    for part, one in zip(got, expected):
+        for a, b in zip(part, one):
+            assert np.array_equal(a, b)
+    assert many.slabs.size >= 2 and many.elements.partners       # FE nodes are shared
+    assert np.abs(got[0][2]).max() > 0                           # the sphere moves
+
+
+def spheres(overrides, world=None):
+    """Particles (id, x, v) by id and the grid contact's slot count after 150 steps of
+    two spheres meeting (tests/cases/hertz.yaml without its window: contact method 2,
+    the release rule's volume gap, gimp, symmetry faces), slabs cut through both."""
+    case = os.path.join(os.path.dirname(RUNS), "tests", "cases", "hertz.yaml")
+    sim = set_up(case, ["params.ratio=1", "decomposition.axis=x"] + overrides, world)
+    for _ in range(150):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+    contact, = (c for c in sim.stepper.couplings if hasattr(c, "n_slots"))
+    return by_id(world, sim.particles.id, sim.particles.x, sim.particles.v), contact.n_slots()
+
+
+@pytest.mark.mpi(min_size=2)
+def test_grid_contact_across_the_slab_plane_is_exact_too():
+    """The per-body mass, momentum, force and volume at the contact slots are
+    layer-ordered too; summed in array order the same runs part."""
+    world = comm_world()
+    (got, slots), (expected, _) = spheres(EXACT, world), spheres(EXACT)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    assert slots > 0                                  # the spheres are in contact
+    (plain, _), (plain_one, _) = spheres([], world), spheres([])
+    assert not np.array_equal(plain[2], plain_one[2])
