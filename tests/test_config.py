@@ -5,7 +5,7 @@ import pickle
 
 import pytest
 
-from pmpm.case import CaseConfig, fill_body, load_case, load_config, validate_case
+from pmpm.case import CaseConfig, CaseError, fill_body, load_case, load_config, validate_case
 from pmpm.case.bodies import BODY
 from pmpm.case.config import ReadOnlyDict, mirrors, thawed
 from pmpm.case.contact import AUTO, CONTACT
@@ -181,3 +181,19 @@ def test_a_wrong_fem_key_is_still_refused_naming_it():
     with pytest.raises(Exception) as error:
         config_of(bodies=bodies)
     assert "bodies[0].fem.convert" in str(error.value) and "eps_q" in str(error.value)
+
+
+def test_exact_sums_auto_is_on_where_bodies_can_touch():
+    """``grid.exact_sums: auto`` (the default) resolves to a bool: on with two bodies
+    and a contact method (or an FEM body), off for one body or no contact method;
+    true and false are kept as given."""
+    ball = load_config(ROOT / "runs" / "steel_ball_plate.yaml", check_geometry=False)
+    bar = load_config(ROOT / "runs" / "taylor_bar.yaml", check_geometry=False)
+    assert ball.grid.exact_sums is True and bar.grid.exact_sums is False
+    assert load_config(ROOT / "runs" / "steel_ball_plate.yaml", ["contact.method=none"],
+                       check_geometry=False).grid.exact_sums is False
+    assert load_config(ROOT / "runs" / "taylor_bar.yaml", ["grid.exact_sums=true"],
+                       check_geometry=False).grid.exact_sums is True
+    with pytest.raises(CaseError, match="grid.exact_sums"):
+        load_config(ROOT / "runs" / "taylor_bar.yaml", ["grid.exact_sums=sometimes"],
+                    check_geometry=False)

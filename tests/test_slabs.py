@@ -35,6 +35,19 @@ def test_choose_slabs_prefers_balanced_axis():
     assert choose_slabs(hist, 2, "x").axis == 0
 
 
+def test_exact_sums_cut_every_rank_count_along_the_axis_of_two():
+    """With layer-ordered sums (``like_two_ranks``) ``auto`` takes the axis two ranks
+    would cut on 1, 3 and 4 ranks too, where that axis admits them, so that every rank
+    count adds in the same order; without, 4 ranks balance better along y."""
+    hist = [np.array([30, 20, 25, 25, 0, 0]), np.array([25] * 4), np.array([100])]
+    assert choose_slabs(hist, 2, "auto").axis == 0
+    assert choose_slabs(hist, 4, "auto").axis == 1
+    for ranks in (1, 3, 4):
+        assert choose_slabs(hist, ranks, "auto", like_two_ranks=True).axis == 0
+    assert choose_slabs(hist, 5, "auto", like_two_ranks=True).axis == 0
+    assert choose_slabs(hist, 6, "auto", like_two_ranks=True).axis == 0
+
+
 def test_slabs_for_27_node_shapes_are_at_least_three_cells_wide():
     """All the particles in one cell would give a one-cell middle slab; with min_width 3
     every slab keeps three cells (a particle reaches one node layer beyond its cell, and

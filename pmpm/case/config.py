@@ -173,8 +173,10 @@ class GridConfig:
     lost_mass_fraction: float
 
     @classmethod
-    def from_case(cls, grid):
-        return record(cls, grid, windows=tuple(record(WindowConfig, w) for w in grid["windows"]))
+    def from_case(cls, grid, exact_sums=None):
+        """``exact_sums``: the resolved ``grid.exact_sums`` (see :func:`exact_sums_on`)."""
+        return record(cls, grid, windows=tuple(record(WindowConfig, w) for w in grid["windows"]),
+                      exact_sums=grid.get("exact_sums") if exact_sums is None else exact_sums)
 
 
 @mirrors(PAIR)
@@ -364,9 +366,22 @@ class CaseConfig:
     def from_case(cls, case):
         """The records of a validated case dict (``load_case``, ``validate_case``)."""
         return record(
-            cls, case, grid=GridConfig.from_case(case["grid"]),
+            cls, case, grid=GridConfig.from_case(case["grid"], exact_sums_on(case)),
             bodies=tuple(BodyConfig.from_case(body) for body in case["bodies"]),
             loads=tuple(LoadConfig.from_case(load) for load in case["loads"]),
             time=record(TimeConfig, case["time"]), output=record(OutputConfig, case["output"]),
             decomposition=record(DecompositionConfig, case["decomposition"]),
             contact=ContactConfig.from_case(case["contact"]), case=frozen(case))
+
+
+def exact_sums_on(case):
+    """``grid.exact_sums`` resolved: ``auto`` is on where bodies can touch (two bodies or
+    more with a contact method, or an FEM body: surface, node or grid coupling), where
+    a contact decision would turn the sums' round-off into a different answer on another
+    rank count."""
+    value = case["grid"].get("exact_sums", "auto")
+    if value != "auto":
+        return bool(value)
+    bodies = case["bodies"]
+    fem = any(body.get("method") == "fem" for body in bodies)
+    return len(bodies) > 1 and (case["contact"].get("method", 0) > 0 or fem)

@@ -312,6 +312,20 @@ class Boolean:
 
 
 @dataclass(frozen=True, eq=False)
+class BooleanOrAuto:
+    """true, false, or ``auto``: pmpm decides from the rest of the case."""
+
+    def __call__(self, value, path, problems):
+        if not isinstance(value, bool) and value != "auto":
+            problems.add(path, f"expected true, false or auto, got {describe(value)}")
+            return INVALID
+        return value
+
+    def kind(self):
+        return "bool or `auto`"
+
+
+@dataclass(frozen=True, eq=False)
 class Text:
     def __call__(self, value, path, problems):
         if isinstance(value, bool) or not isinstance(value, (str, int, float)):
@@ -464,6 +478,10 @@ def choice(options, what="value", aliases=None):
 
 def boolean():
     return Boolean()
+
+
+def boolean_or_auto():
+    return BooleanOrAuto()
 
 
 def text():

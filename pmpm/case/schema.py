@@ -13,7 +13,7 @@ from .errors import CaseError, Problems, join, unknown_name
 from .fem import check_fem_bodies, check_fem_keys_on_particle_bodies
 from .rigid import check_free_rigid
 from .fields import (INVALID, Checked, Custom, Field, Marker, Tagged, at_least, at_most,
-                     boolean, choice, defaults_of, greater, has_invalid, integer, list_of,
+                     boolean, boolean_or_auto, choice, defaults_of, greater, has_invalid, integer, list_of,
                      mapping, number, number_list, read_mapping, text, valid, vector)
 from .materials import MATERIALS
 from .overrides import apply_overrides
@@ -314,20 +314,23 @@ GRID = {
                           "(docs/validation/wall_friction.md)"),
     "windows": Field(list_of(mapping(WINDOW), 0, "window"), [],
                      doc="refined sub-grids tied to the coarse grid (seed 000 Secs. 3-4)"),
-    "exact_sums": Field(boolean(), False,
+    "exact_sums": Field(boolean_or_auto(), "auto",
                         doc="sums that do not depend on the rank count, so that a run on "
                             "N ranks gives the one-rank answer to the bit however long it "
                             "runs and through contact decisions: the particles' "
                             "contributions to each node (grid contact's per-body fields "
                             "and surface contact's grid sums too) are added by cell layer "
                             "along the slab axis, then by particle id, and the FE nodes "
-                            "ranks share by element id (pmpm.kernels.layered). Not with "
-                            "refined windows or grid-coupled FE nodes (they keep array "
-                            "order). One rank's `auto` slab axis is then the axis two ranks "
-                            "would cut. Costs 9 % of the step loop with gimp and 22 % with "
-                            "the hats (Taylor bar, 0.76 mm; docs/performance-notes.md), so "
-                            "it is off by default: the sums then follow the particle "
-                            "arrays' order and N ranks differ from one by round-off"),
+                            "ranks share by element id (pmpm.kernels.layered); an `auto` "
+                            "slab axis is then the axis two ranks would cut, on any number "
+                            "of ranks that admits it. Not with refined windows or "
+                            "grid-coupled FE nodes (they keep array order). `auto` (the "
+                            "default): on where bodies can touch (two bodies or more with "
+                            "a contact method, or an FEM body), where contact decisions "
+                            "would turn round-off into different answers; off otherwise, "
+                            "where N ranks differ from one by round-off that stays "
+                            "round-off. Costs about 10 % of the step loop (Taylor bar, "
+                            "0.76 mm, gimp and hats; docs/performance-notes.md)"),
     "lost_mass_fraction": Field(number(at_least(0), at_most(1)), 0.0, "1",
                                 "share of each body's initial mass that may leave the grid "
                                 "box (its particles are dropped, and counted in the progress "

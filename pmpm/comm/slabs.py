@@ -75,18 +75,20 @@ def choose_slabs(cell_counts_per_axis, n_ranks, axis="auto", min_width=1,
                  like_two_ranks=False):
     """Pick the slab axis (given, or the one that balances best, ties to the smaller
     cut plane) and its balanced bounds, each slab at least ``min_width`` cells wide;
-    with ``like_two_ranks``, one rank's ``auto`` is the axis of two ranks (the
-    layer-ordered sums run along it).
+    with ``like_two_ranks``, ``auto`` is the axis two ranks would cut on any rank count
+    whose slabs it admits (the layer-ordered sums run along it).
     ``cell_counts_per_axis`` holds three histograms. Raises SetupError, naming
     ``decomposition.axis``, when no candidate axis has enough cell layers for every
     rank."""
     candidates = range(3) if axis == "auto" else [AXES.index(axis)]
     layers = max(len(cell_counts_per_axis[a]) for a in candidates)
-    if like_two_ranks and n_ranks == 1 and axis == "auto" and layers >= 2 * min_width:
-        # the axis two ranks would cut: the layer-ordered sums (pmpm.kernels.layered) run
-        # along the slab axis, so one rank then adds in the order two ranks do
-        axis = AXES[choose_slabs(cell_counts_per_axis, 2, axis, min_width).axis]
-        candidates = [AXES.index(axis)]
+    if like_two_ranks and n_ranks != 2 and axis == "auto" and layers >= 2 * min_width:
+        # the axis two ranks would cut, on every rank count that admits it: the
+        # layer-ordered sums (pmpm.kernels.layered) run along the slab axis, so every rank
+        # count then adds in the same order
+        two = choose_slabs(cell_counts_per_axis, 2, axis, min_width).axis
+        if len(cell_counts_per_axis[two]) >= n_ranks * min_width:
+            axis, candidates = AXES[two], [two]
     if layers < n_ranks * min_width:
         raise SetupError([_too_many_ranks(axis, layers, n_ranks, min_width)])
     best = None
