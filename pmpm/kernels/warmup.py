@@ -38,12 +38,14 @@ def layer_variants(order, width, shape_code, exact):
 
 def warm_up_defaults():
     """Compile (or load) the step's kernels for the hats and for the default shape
-    functions with the APIC variants, the FEM bodies' and couplings' with them: what
-    scripts/setup.sh compiles while h5py builds, and the test session before its first
-    test. Returns the seconds spent."""
+    functions with the APIC variants, the FEM bodies' and couplings' with them, and the
+    layer-ordered sums' variants (``grid.exact_sums``, on by default where bodies touch):
+    what scripts/setup.sh compiles while h5py builds, and the test session before its
+    first test. Returns the seconds spent."""
     from ..case.schema import GRID
-    return warm_up(LINEAR, **ALL_COUPLINGS) + \
-        warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True, **ALL_COUPLINGS)
+    return warm_up(LINEAR, exact=True, **ALL_COUPLINGS) + \
+        warm_up(SHAPE_CODES[GRID["shape_functions"].default], apic=True, exact=True,
+                **ALL_COUPLINGS)
 
 
 def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True,
