@@ -135,6 +135,8 @@ def migrate_store(world, destination, store, check=True):
     world.traffic.note("alltoall", rows.nbytes + send_counts.nbytes,
                        np.count_nonzero(send_counts))
     received = _alltoallv_rows(world, rows, send_counts, recv_counts)
+    if len(leaving) == 0 and len(received) == 0:
+        return          # nothing left or came: the columns stay as they are (no copy)
     lower = int(recv_counts[:world.rank].sum())
     store.take(destination == world.rank, before=received[:lower], after=received[lower:])
 
