@@ -55,29 +55,3 @@ def flush_layer(target, scratch, starts, halo, kept, layer):
             for c in range(width):
                 kept[first, shift + i, c] = scratch[i, c]
     scratch[:rows, :] = 0.0
-
-
-#: an empty row span (low above high): no row of the window written yet
-NO_LOW, NO_HIGH = 2 ** 62, -1
-
-
-@njit(cache=True)
-def flush_layer_rows(target, scratch, starts, halo, kept, layer, low, high):
-    """:func:`flush_layer` for a window whose writes all fell in its rows ``low`` to
-    ``high`` (window rows, as the kernel tracked them): only those rows are added and
-    zeroed, the others being zero already. A node plane holds the whole grid's
-    cross-section, most of it empty beside a body (the 0.38 mm Taylor bar's plane is 2,304
-    nodes around 270 of material), so adding whole windows cost the hats' scatter 46 %.
-    The rank's first layers, whose rows are also kept for the shared planes, take the
-    whole window as before."""
-    first = layer - halo
-    if first < kept.shape[0]:
-        flush_layer(target, scratch, starts, halo, kept, layer)
-        return
-    last = min(first + 2 + 2 * halo, starts.shape[0] - 1)
-    shift, rows = starts[first], starts[last] - starts[first]
-    width = target.shape[1]
-    for i in range(max(low, 0), min(high, rows - 1) + 1):
-        for c in range(width):
-            target[shift + i, c] += scratch[i, c]
-            scratch[i, c] = 0.0

@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .layered import NO_HIGH, NO_LAYER, NO_LOW, flush_layer, flush_layer_rows, layer_plane
+from .layered import NO_LAYER, flush_layer, layer_plane
 from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
@@ -45,7 +45,6 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
     acc, count, current, shift = nodal, x.shape[0], NO_LAYER, 0
     order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
     axis = halo = 0                       # unpacked: no record in the loop
-    low, high, corner = NO_LOW, NO_HIGH, 2 * (strides[0] + strides[1] + strides[2])
     if layers is not None:
         acc, order, axis = layers.scratch, layers.order, layers.axis
         starts, halo, kept = layers.starts, layers.halo, layers.kept
@@ -60,16 +59,13 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
                 if current != NO_LAYER:
-                    flush_layer_rows(nodal, acc, starts, halo, kept, current, low, high)
+                    flush_layer(nodal, acc, starts, halo, kept, current)
                 current, shift = layer, starts[layer - halo]
-                low, high = NO_LOW, NO_HIGH
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
         if shape != LINEAR and affine is None:      # the tensor product, row by row
             base, _ = point_weights(x, p, origin, inv_h, lo, strides, shape,
                                     half_width[body[p]], axes)
-            if layers is not None:      # the rows this particle writes: base to corner
-                low, high = min(low, base - shift), max(high, base + corner - shift)
             v0, v1, v2 = v[p, 0], v[p, 1], v[p, 2]
             for a in range(3):
                 for j in range(3):
@@ -84,9 +80,6 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             continue
         reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
                         nodes, w)
-        if layers is not None:
-            for k in range(reach):
-                low, high = min(low, nodes[k] - shift), max(high, nodes[k] - shift)
         if affine is not None and slot == 0:
             node_offsets(axes, e)
             affine_velocity_matrix(affine, p, axes, 1.0 / inv_h, M)
@@ -99,7 +92,7 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             acc[n, slot + 2] += mw * v[p, 1]
             acc[n, slot + 3] += mw * v[p, 2]
     if layers is not None and current != NO_LAYER:
-        flush_layer_rows(nodal, acc, starts, halo, kept, current, low, high)
+        flush_layer(nodal, acc, starts, halo, kept, current)
 
 
 @njit(cache=True, inline="always")
@@ -310,7 +303,6 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     acc, count, current, shift = force, x.shape[0], NO_LAYER, 0
     order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
     axis = halo = 0                       # unpacked: no record in the loop
-    low, high, corner = NO_LOW, NO_HIGH, 2 * (strides[0] + strides[1] + strides[2])
     if layers is not None:
         acc, order, axis = layers.scratch, layers.order, layers.axis
         starts, halo, kept = layers.starts, layers.halo, layers.kept
@@ -325,11 +317,10 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
                 if current != NO_LAYER:
-                    flush_layer_rows(force, acc, starts, halo, kept, current, low, high)
+                    flush_layer(force, acc, starts, halo, kept, current)
                     if contact is not None and clayers is not None:
                         flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
                 current, shift = layer, starts[layer - halo]
-                low, high = NO_LOW, NO_HIGH
                 if contact is not None and clayers is not None:
                     cshift = cstarts[layer - halo]
         b = body[p]
@@ -412,12 +403,6 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             ex += ls * load_vec[li, 0]
             ey += ls * load_vec[li, 1]
             ez += ls * load_vec[li, 2]
-        if layers is not None:          # the rows this particle writes
-            if shape == LINEAR:
-                for k in range(reach):
-                    low, high = min(low, nodes[k] - shift), max(high, nodes[k] - shift)
-            else:
-                low, high = min(low, base - shift), max(high, base + corner - shift)
         if shape == LINEAR:
             for k in range(reach):
                 n = nodes[k]
@@ -456,7 +441,7 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                             cacc[s - cshift, b, 1] += f1
                             cacc[s - cshift, b, 2] += f2
     if layers is not None and current != NO_LAYER:
-        flush_layer_rows(force, acc, starts, halo, kept, current, low, high)
+        flush_layer(force, acc, starts, halo, kept, current)
         if contact is not None and clayers is not None:
             flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
     return fastest, bad
