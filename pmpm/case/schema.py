@@ -329,8 +329,9 @@ GRID = {
                             "a contact method, or an FEM body), where contact decisions "
                             "would turn round-off into different answers; off otherwise, "
                             "where N ranks differ from one by round-off that stays "
-                            "round-off. Costs about 10 % of the step loop (Taylor bar, "
-                            "0.76 mm, gimp and hats; docs/performance-notes.md)"),
+                            "round-off. Costs 10 to 20 % of the step loop (Taylor bar, "
+                            "0.90 at 0.76 mm, 0.79-0.81 at 0.38 mm, hats and gimp; "
+                            "docs/performance-notes.md)"),
     "lost_mass_fraction": Field(number(at_least(0), at_most(1)), 0.0, "1",
                                 "share of each body's initial mass that may leave the grid "
                                 "box (its particles are dropped, and counted in the progress "
