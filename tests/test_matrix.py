@@ -23,6 +23,8 @@ def test_the_matrix_defaults_are_pmpms():
     assert CONTACT["gap"].default == "auto" and CONTACT["release"].default == "auto"
     assert matrix.AXES["contact"]["auto"] == ["contact.release=auto", "contact.gap=auto"]
     assert list(matrix.AXES["contact"])[0] == "auto"
+    assert matrix.AXES["sums"]["auto"] == [f"grid.exact_sums={GRID['exact_sums'].default}"]
+    assert list(matrix.AXES["sums"])[0] == "auto"
 
 
 @pytest.mark.parametrize("name", matrix.CI_ROWS)
