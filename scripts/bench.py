@@ -7,7 +7,10 @@ identical work, parallel efficiency, and peak memory per particle, for
 - the Taylor bar on a tied interface grid (0.38 mm window, 0.76 mm outside; 0.02 ms),
 - the steel ball on the 1 mm plate at 0.66 mm with contact method 2 and without (0.03 ms),
 - the Johnson-Cook block as 216,000 FEM hexahedra (runs/fem_block.yaml; element-steps,
-  reported in the particle-steps column).
+  reported in the particle-steps column),
+- the seed 004 perforation, coarse (runs/ogive_plate_fem.yaml: 4 mm plate elements and
+  cells, the 5.7 mm rod, the first 50 us, elements converting into particles): point-steps
+  (element-steps plus particle-steps) in that column, each also on its own in bench.json.
 
 Writes results/bench/bench.{json,md}; bench.json also records the commit, date, command
 and machine. The machine this was written for has 2 cores: more ranks than cores need
@@ -55,6 +58,10 @@ CASES = {
     # contact (ICFEMP, issue 16), the first 0.2 s of runs/sphere_rolling_fem.yaml
     "sphere_fem_R8": ("runs/sphere_rolling_fem.yaml", ["params.R=8", "time.end=200",
                                                       "output.frames=1"]),
+    # seed 004 Sec. 4.2 coarse (issue 24 Speed): elements and the particles they become
+    "perforation_fem_4mm": ("runs/ogive_plate_fem.yaml", [
+        "params.cell=4", "params.plate_element=4", "params.rod_element=5.7",
+        "time.end=0.05", "output.frames=1"]),
     # contact overhead (issue 3): the same particles with and without method 2
     "ball_contact": ("runs/steel_ball_plate.yaml", ["params.method=2", "time.end=0.03",
                                                     "output.frames=1"]),
@@ -119,12 +126,15 @@ def measure(name, case, sets, ranks, out):
     s = run_case(case, out, ranks, sets)
     memory = s.get("memory", {})
     elements = s.get("n_elements", 0) if not s["n_particles"]["initial"] else 0
-    per_rank = (s["element_steps_per_s"] / ranks if elements
-                else s["particle_steps_per_s_per_rank"])
+    element_rate = s.get("element_steps_per_s", 0.0) / ranks
+    particle_rate = s["particle_steps_per_s"] / ranks
+    # a body of elements alone: element-steps; one that converts: element- plus particle-steps
+    per_rank = element_rate + particle_rate if elements else s["particle_steps_per_s_per_rank"]
     return {"case": name, "ranks": ranks,
             "particles": elements or s["n_particles"]["initial"],
             "steps": s["n_steps"], "step_wall_s": s["step_wall_s"], "compile_s": s["compile_s"],
-            "per_rank": per_rank,
+            "per_rank": per_rank, "element_steps_per_rank": element_rate,
+            "particle_steps_per_rank": particle_rate,
             # summary.json divides the memory added by max(particles, 1): per element here
             "bytes_per_particle": (memory["bytes_per_particle"] / elements
                                    if elements and memory.get("bytes_per_particle")

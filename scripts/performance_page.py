@@ -180,7 +180,9 @@ README_CASES = {"taylor_0.38_gimp": "Taylor bar, 0.38 mm, gimp (the default)",
                 "taylor_0.38_bspline": "Taylor bar, 0.38 mm, bspline",
                 "ball_contact": "steel ball on a plate, contact method 2, linear",
                 "block_1M": "Johnson-Cook block, linear",
-                "fem_block_216k": "the block as 216,000 FEM hexahedra (element-steps)"}
+                "fem_block_216k": "the block as 216,000 FEM hexahedra (element-steps)",
+                "perforation_fem_4mm": "seed 004 perforation, 4 mm, elements turning into "
+                                       "particles (point-steps)"}
 
 
 def readme_table(data):
