@@ -166,7 +166,7 @@ def plate_energies(fem):
     elements)."""
     stats = fem.body_stats()
     plate, rod = stats["plate"]["energy"], stats["rod"]["energy"]
-    return {"plate_hg": plate["hourglass"] + fem.converted_hourglass,  # rod's too, if any
+    return {"plate_hg": plate["hourglass"] + fem.removed_hourglass,  # rod's too, if any
             "plate_int": plate["internal"], "plate_kin": plate["kinetic"],
             "rod_kin": rod["kinetic"], "rod_int": rod["internal"],
             "rod_hg": rod["hourglass"]}

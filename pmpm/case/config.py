@@ -341,6 +341,16 @@ class BodyConfig:
         """The conversion rules of an FEM body's elements, or None."""
         return self.fem.convert if self.is_fem else None
 
+    @property
+    def born_spacing(self):
+        """The lattice spacing of the particles an FEM body's elements may become
+        (``fem.convert``: element size / particles per direction), or None: the body
+        never holds particles born of elements (the solver reads this, not ``convert``,
+        to size those particles and to let them meet the mesh)."""
+        if self.convert is None:
+            return None
+        return float(self.fem.element_size) / self.convert.particles_per_direction
+
 
 @mirrors(TOP_LEVEL, case="the whole validated case, read-only (``thawed(config.case)`` is "
                          "the plain dict, for ``fill_body`` and for output files)")

@@ -59,8 +59,8 @@ Hourglass = namedtuple("Hourglass", "kind coefficient resist energy")
 def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contributions=None):
     """Stress update and internal plus hourglass forces of every element, added to
     ``force`` (n, 3); with ``rates`` (n_elements,) each element's own stable rate too
-    (0 for a rigid body's or a failed update, inf for an inverted element: the
-    conversion on the step, pmpm.solver.conversion, reads it); with ``contributions``
+    (0 for a rigid body's or a failed update, inf for an inverted element:
+    FemBodies.step_rates, which a transfer's rule may read); with ``contributions``
     (n_elements, 8, 3), zeros, each element's nodal forces too (for sums over the
     nodes ranks share in element order, pmpm.comm.shared_nodes).
 

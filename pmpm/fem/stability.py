@@ -122,7 +122,7 @@ def element_rates(x, hexes, body, rho, c, params, hg_kind, hg_k, out):
     ``rho``, wave speed ``c``, material rows ``params`` and hourglass forms, into ``out``
     (0 where the body has no wave speed, inf where the element is inverted). With the
     materials' initial density and speed it depends on the element's shape only: the
-    set-up's first step and the conversion on a collapsing step (pmpm.solver.conversion)
+    set-up's first step and a rule on collapsing elements (FemBodies.shape_rates)
     read it; the step's own rate comes from element_forces."""
     xe, b, gamma = np.empty((8, 3)), np.empty((8, 3)), np.empty((4, 8))
     frame, half = np.empty((3, 3)), np.ones(3)

@@ -11,16 +11,17 @@ File layout::
         node_id (n,) int64, node_x (n,3), node_v (n,3)
                           global node ids, positions and half-step velocities
         element_id (m,) int64
-        hexes (m,8) body (m,)   only once elements have turned into particles
-                                (fem.convert): the frame's own connectivity, into its
-                                node rows; else /mesh's
+        hexes (m,8) body (m,)   only once the alive elements are fewer than /mesh's
+                                (some were removed from the mesh): the frame's own
+                                connectivity, into its node rows; else /mesh's
         stress (m,6; attr components = "xx,yy,zz,xy,yz,zx") eps_p density e_int
         damage (0 intact .. 1 failed) centroid (m,3) hourglass_energy (m,)
 
 Node rows are in ascending node id, element rows in ascending element id, whatever ranks
 hold them (pmpm.io._by_id): the file is the same, row for row, on any number of ranks.
-Until an element converts, ids are ``0 .. n-1`` and ``0 .. m-1`` and row = id; after,
-the ids that are gone leave no row. A node that several ranks hold is sent once, by the
+Until an element is removed, ids are ``0 .. n-1`` and ``0 .. m-1`` and row = id;
+after, the ids that are gone leave no row (a frame holds the elements alive, whatever
+removed the others). A node that several ranks hold is sent once, by the
 lowest of them (the rank that counts it in sums, ``FemBodies.owned``).
 
 Every rank writes its share with collective MPI-IO (pmpm.io._collective): each sends
@@ -58,7 +59,7 @@ def laid_out(comm, nodes, elements):
 def node_rows(comm, corners, kept, bound):
     """The file rows of the node ids ``corners`` (kept: the ids this rank keeps, sorted):
     the ids themselves while every id below ``bound`` is in the file (no element has
-    turned into particles), else asked of the keepers (collective)."""
+    been removed), else asked of the keepers (collective)."""
     if comm.allreduce(len(kept)) == bound:
         return corners
     used, inverse = np.unique(corners, return_inverse=True)
@@ -120,7 +121,7 @@ class ElementWriter:
         """After --restart: keep the frames written before the checkpoint, drop later
         ones (the restarted run writes them again)."""
         self.frames = self.file["frames"]
-        # the mesh the file began with: a checkpoint taken after conversions holds fewer
+        # the mesh the file began with: a checkpoint taken after removals holds fewer
         self.n_elements = len(self.file["mesh/hexes"])
         self.n_nodes = int(self.file["mesh"].attrs["n_nodes"])
         for name in sorted(self.frames):
@@ -142,7 +143,7 @@ class ElementWriter:
         nodes = in_precision(nodes, self.precision)
         elements = in_precision(elements, self.precision)
         sizes = totals(self.comm, nodes, elements)
-        if sizes == (self.n_nodes, self.n_elements):   # no element has become particles
+        if sizes == (self.n_nodes, self.n_elements):   # every element is alive
             del elements["hexes"], elements["body"]
         time, step = C.bcast_root(self.comm, (float(time), int(step)))
         group = self.frames.create_group(f"{self.count:06d}")

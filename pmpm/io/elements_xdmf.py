@@ -15,7 +15,7 @@ CELL_SCALARS = ("eps_p", "density", "e_int", "damage", "hourglass_energy", "pres
 def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements, real="<f8"):
     """Write ``path`` for ``frames``: a list of (group path, time, nodes, elements) in
     ``h5_name``; a frame whose counts differ from the mesh's (``n_nodes``,
-    ``n_elements``: elements converted into particles) has its own connectivity;
+    ``n_elements``: elements removed from the mesh) has its own connectivity;
     ``real``: the dtype of the floating-point datasets (output.precision)."""
     grids = "".join(_grid(h5_name, group, time, n, m,
                           (n, m) != (n_nodes, n_elements), real)

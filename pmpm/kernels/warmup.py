@@ -132,25 +132,16 @@ def kernels_of(config):
     grid contact with a contact method and two bodies or more (pmpm.solver.contact.
     ContactRules.active), ties with refined windows, mirrors with a face the 27-node
     shapes reflect across (symmetry, fixed, slip without friction: pmpm.kernels.boundary.
-    mirrors); the FEM bodies' element kernels, particle-to-surface contact where a
-    surface coupling meets particles (or elements convert into them), node-to-surface
-    contact where it meets two FEM bodies, grid coupling where a grid coupling meets
-    particles, and the force log's kernels (``output.forces``), with those of free rigid
-    particle bodies where there are some."""
-    fem = [b.is_fem for b in config.bodies]
-    couplings = {config.contact.coupling} | {p.coupling for p in config.contact.pairs}
-    particles = not all(fem)
+    mirrors), the layer-ordered sums' variants with ``grid.exact_sums``; and of
+    :data:`ALL_COUPLINGS` those that the case's body kinds and parts declare (each entry
+    of pmpm.solver.registry says which it needs: ``warms``)."""
+    from ..solver.registry import kernels_to_warm    # the parts know what they call
+    declared = kernels_to_warm(config)
     contact = config.contact.method > 0 and len(config.bodies) > 1
     return {"apic": config.time.transfer == "apic", "contact": contact,
             "ties": bool(config.grid.windows), "mirrors": _mirrors(config.grid),
-            "fem": any(fem),
-            "surface": any(fem) and ("surface" in couplings and particles
-                                     or _converts(config)),
-            "node_contact": "surface" in couplings and sum(fem) > 1,
-            "fem_grid": any(fem) and particles and contact and "grid" in couplings,
-            "forces": config.output.forces, "exact": config.grid.exact_sums,
-            "free_rigid": contact and any(not f and b.free_axes
-                                          for f, b in zip(fem, config.bodies))}
+            "exact": config.grid.exact_sums,
+            **{name: name in declared for name in ALL_COUPLINGS}}
 
 
 def _mirrors(grid):
@@ -160,11 +151,6 @@ def _mirrors(grid):
     return any(kind in ("symmetry", "fixed") or
                (kind == "slip" and not (grid.friction or {}).get(face, 0.0))
                for face, kind in grid.boundary.items())
-
-
-def _converts(config):
-    """Whether an FEM body converts failing elements into particles."""
-    return any(b.convert for b in config.bodies)
 
 
 def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR,

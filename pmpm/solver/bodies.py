@@ -25,11 +25,14 @@ class BodyTable:
         #: impulses, pmpm.solver.rigid_particles)
         self.grid_rigid = self.rigid & ~np.array(
             [bool(b.free_axes) and b.is_fem for b in bodies], bool)
+        #: per body the spacing, in cells, of the particles born of an FEM body's
+        #: elements (``BodyConfig.born_spacing``), 0 where none are
+        self.born_spacing = np.array([b.born_spacing / config.grid.cell if b.born_spacing
+                                      else 0.0 for b in bodies])
         #: the particles' uGIMP half-width in cells: half the lattice spacing (an FEM
-        #: body's: half that of the particles its elements convert into)
-        self.half_width = np.array([0.5 * converted_spacing(b, config.grid.cell)
-                                    if converted_spacing(b, config.grid.cell)
-                                    else 0.5 / b.particles_per_cell for b in bodies])
+        #: body's: half that of the particles born of its elements)
+        self.half_width = np.array([0.5 * spacing if spacing else 0.5 / b.particles_per_cell
+                                    for spacing, b in zip(self.born_spacing, bodies)])
 
     def initial_wave_speed(self, body_index):
         """sqrt((K + 4G/3)/rho0), or the EOS sound speed where larger (or the only one)."""
@@ -38,14 +41,6 @@ class BodyTable:
         if prm[layout.K] > 0 and np.isfinite(prm[layout.K]):
             speed = np.sqrt((prm[layout.K] + 4 * prm[layout.G] / 3) / prm[layout.RHO0])
         return max(speed, prm[layout.EOS_C0])
-
-
-def converted_spacing(body, cell):
-    """The spacing, in cells, of the particles an FEM body's elements convert into
-    (``fem.convert``: element size / particles per direction), or 0."""
-    if body.convert is None:
-        return 0.0
-    return float(body.fem.element_size) / body.convert.particles_per_direction / cell
 
 
 def fill_positions(config, fill_body, case_dir):

@@ -22,28 +22,31 @@ would invert (volume at most 0):
   is the count of the run's initial particles, and the refined windows' splitting counts
   ids from above every id conversion can give (pmpm.solver.simulation);
 * in the same step the step's transfer hook (pmpm.solver.transfer.ElementsToParticles)
-  takes the converted elements off: every rank drops their share of the masses of the
-  nodes it holds (the converted elements of all ranks, gathered only when some element
-  converts, applied in element id order so that every copy of a shared node, and 1 rank
-  against N, agree), drops the nodes no element of its own uses any more, and the
-  couplings rebuild what depends on the mesh (``after_elements_changed``: the free faces
-  of surface contact, so that the dead element's neighbours' exposed faces are segments
-  before the next step's contact).
+  takes the converted elements off with the FEM kind's general removal
+  (``FemBodies.remove_elements``: every rank drops their share of the masses of the
+  nodes it holds, the converted elements of all ranks gathered only when some element
+  converts and applied in element id order so that every copy of a shared node, and 1
+  rank against N, agree; the nodes no element of its own uses any more go), and the
+  kind's ``elements_changed`` event has the couplings rebuild what depends on the mesh
+  (the free faces of surface contact, so that the dead element's neighbours' exposed
+  faces are segments before the next step's contact). The particles' spacing
+  (``BodyConfig.born_spacing``) sizes their shape functions and has surface contact let
+  them meet the rest of their own mesh.
 
-It is built from the registry (pmpm.solver.registry, ``bodies[i].fem.convert``); the
-particle ids it reserves (``reserved_ids``) are kept out of the refined windows'
-splitting by the simulation.
+It is built from the registry (pmpm.solver.registry, ``bodies[i].fem.convert``:
+:func:`build_conversion`); the particle ids it reserves (``reserved_ids``) are kept out
+of the refined windows' splitting by the simulation.
 
 The converted element's hourglass energy stays in the energy balance (FemBodies keeps
-it); the kinetic energy the nodes lose beyond what the particles take (the velocity
-field's variation over the element) is counted in ``kinetic_loss``.
+it, ``removed_hourglass``); the kinetic energy the nodes lose beyond what the particles
+take (the velocity field's variation over the element) is counted in ``kinetic_loss``.
 """
 import numpy as np
 
 from ..case.fem import MAX_CONVERT_DIVISIONS
 from ..particles.store import COLUMNS, empty_column
 from .bodies import refinement
-from .transfer import Transfer
+from .transfer import ElementsToParticles, Transfer
 
 #: natural coordinates of the 8 nodes (VTK order, pmpm.fem.hexahedron)
 CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
@@ -75,6 +78,17 @@ class ConversionRules:
     @property
     def active(self):
         return bool(self.divisions.any())
+
+
+def build_conversion(setup):
+    """The registry's builder (pmpm.solver.registry.Setup): the conversion of the bodies
+    with ``fem.convert``, or None when no body converts."""
+    rules = ConversionRules(setup.config)
+    if setup.elements is None or not rules.active:
+        return None
+    mover = ElementsToParticles(setup.world, setup.elements, setup.points)
+    return Conversion(setup.world, rules, mover, setup.n_total, setup.grid.h,
+                      [b.particles_per_cell for b in setup.config.bodies])
 
 
 class Conversion(Transfer):
@@ -123,7 +137,7 @@ class Conversion(Transfer):
     def state(self):
         """What a checkpoint keeps (collective): the ids, the count, and the energies
         the converted elements leave behind, summed over the ranks."""
-        hourglass, loss = self.world.sum(np.array([self.elements.converted_hourglass,
+        hourglass, loss = self.world.sum(np.array([self.elements.removed_hourglass,
                                                    self.kinetic_loss]))
         return {"id_base": self.id_base, "converted": self.converted,
                 "hourglass": float(hourglass), "kinetic_loss": float(loss),
@@ -135,7 +149,7 @@ class Conversion(Transfer):
         if "start_rates" in state:       # checkpoints before the step criterion: as found
             self.start_rates = np.asarray(state["start_rates"], np.float64)
         if self.world.is_root:
-            self.elements.converted_hourglass = float(state["hourglass"])
+            self.elements.removed_hourglass = float(state["hourglass"])
             self.kinetic_loss = float(state["kinetic_loss"])
 
     def transfer(self):

@@ -5,8 +5,9 @@ A coupling answers the step's hooks (all optional, in step order):
 ``before_reflect`` (after the sums of the nodal values or forces, before their
 reflection across planes of symmetry), ``after_mass_sum``, ``after_velocities``, ``after_forces`` (before the force sums),
 ``after_integrate`` and ``after_update_points`` (the points and FE nodes have moved),
-and ``after_elements_changed`` (elements turned into particles at the end of a step, or
-moved to another rank when the slabs were rebalanced);
+and ``after_elements_changed`` (called by the FEM kind's ``elements_changed`` event:
+elements removed by a transfer at the end of a step, or moved to another rank when the
+slabs were rebalanced);
 and gives the point kernels its ``view`` of a level (None: the point kernels see the one
 shared field). Today: the tied interface between refined windows and the coarse grid
 (seed 000 Sec. 3), multi-velocity grid contact (seed 001, ``pmpm.solver.contact``) and
@@ -46,8 +47,9 @@ class Coupling:
         pass
 
     def after_elements_changed(self):
-        """Elements were removed (moved into particles, pmpm.solver.transfer) or moved
-        to another rank (a rebalance): rebuild what depends on the mesh (collective)."""
+        """Elements were removed (a transfer, pmpm.solver.transfer) or moved to another
+        rank (a rebalance), as their kind's ``elements_changed`` says: rebuild what
+        depends on the mesh (collective)."""
 
     def view(self, state):
         return None

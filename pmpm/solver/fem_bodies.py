@@ -97,7 +97,7 @@ class FemBodies(BodyKind):
         self.speed, self.fault = 0.0, None
         #: shared nodes' forces summed in element order, as one rank adds them
         self.exact = config.grid.exact_sums
-        self.converted_hourglass = 0.0     # of this rank's elements that became particles
+        self.removed_hourglass = 0.0       # of this rank's elements removed from the mesh
         self.rigid_motion = None          # solver.rigid_motion.RigidMotion, set by the run
         self.force_log = None             # solver.forces.ForceLog, set by the simulation
         self.faces = constrained_faces(config.grid)
@@ -120,7 +120,7 @@ class FemBodies(BodyKind):
                              for b in fem.body_indices if (elements["body"] == b).any()}
         fem.n_elements_total = int(elements["element_id"].max()) + 1 \
             if len(elements["element_id"]) else 0
-        # node ids are 0 .. n-1 until elements convert into particles and nodes go
+        # node ids are 0 .. n-1 until elements are removed (remove_elements) and nodes go
         corners = np.searchsorted(nodes["node_id"], elements["hexes"])
         centroids = nodes["x"][corners].mean(axis=1)
         mine = element_owners(centroids, grid, slabs) == world.rank
@@ -250,6 +250,7 @@ class FemBodies(BodyKind):
         nodes = {k: np.concatenate([p["node", k] for p in received]) for k in nodes}
         _, first = np.unique(nodes["node_id"], return_index=True)  # copies are equal
         self.set_columns(elements, {k: col[first] for k, col in nodes.items()})
+        self.elements_changed()
         return True
 
     def element_columns(self):
@@ -285,8 +286,7 @@ class FemBodies(BodyKind):
                                                  1e-6 * self.h)
         self.force = np.zeros_like(self.x)
 
-    # -- elements that leave the mesh: what a rule reads (pmpm.solver.conversion) and what
-    # -- the step's transfer hook does (pmpm.solver.transfer.ElementsToParticles) ------
+    # -- elements that leave the mesh: what a transfer's rule reads, and the removal ----
     def volumes(self):
         """The elements' current volumes."""
         out = np.empty(len(self.hexes))
@@ -310,12 +310,16 @@ class FemBodies(BodyKind):
         return (self.element_id[chosen], self.node_id[self.hexes[chosen]],
                 self.element_mass[chosen] / 8.0)
 
-    def remove_elements(self, chosen, shares):
-        """Drop this rank's elements ``chosen`` (bool), take every rank's removed
-        elements' ``shares`` (transfer.merge_shares: rows in element id order) off the
-        masses of the nodes held here, drop the nodes no element here uses, and find the
-        sharers again (collective). The elements' hourglass energy stays counted."""
-        self.converted_hourglass += float(self.hourglass.energy[chosen].sum())
+    def remove_elements(self, chosen):
+        """Take this rank's elements ``chosen`` (bool) out of the mesh, for any transfer
+        that moves their material elsewhere (collective): every rank's removed elements'
+        shares of their nodes' masses, gathered and taken off in element id order (so
+        every copy of a shared node, and 1 rank against N, agree); the nodes no element
+        here uses any more go, the sharers (halos) are found again, and the kind raises
+        :meth:`elements_changed` (the couplings' free faces). The removed elements'
+        hourglass energy stays counted (``removed_hourglass``)."""
+        shares = merge_shares(self.world.allgather(self.mass_shares(chosen)))
+        self.removed_hourglass += float(self.hourglass.energy[chosen].sum())
         _, node_ids, share = shares
         held = np.searchsorted(self.node_id, node_ids.ravel())
         held = np.minimum(held, len(self.node_id) - 1)
@@ -328,6 +332,7 @@ class FemBodies(BodyKind):
         used[self.hexes[keep].ravel()] = True
         nodes = {k: col[used] for k, col in self.node_columns().items()}
         self.set_columns(elements, nodes)
+        self.elements_changed()
 
     def kinetic_energy_of_nodes(self):
         m, v = self.mass[self.owned], self.v[self.owned]
@@ -439,7 +444,7 @@ class FemBodies(BodyKind):
         m, v = self.mass[self.owned], self.v[self.owned]
         kinetic = 0.5 * float(m @ np.einsum("ij,ij->i", v, v))
         internal = float(self.element_mass @ self.state.e_int)
-        hourglass = float(self.hourglass.energy.sum()) + self.converted_hourglass
+        hourglass = float(self.hourglass.energy.sum()) + self.removed_hourglass
         return kinetic, internal, hourglass
 
     def body_stats(self, world):
@@ -496,6 +501,16 @@ class FemBodies(BodyKind):
                     "centroid": self.centroids(),
                     "hourglass_energy": self.hourglass.energy}
         return nodes, elements
+
+
+def merge_shares(parts):
+    """Every rank's (element ids, node ids (m, 8), mass shares (m,)) as one set of
+    rows, in element id order."""
+    ids = np.concatenate([p[0] for p in parts])
+    order = np.argsort(ids, kind="stable")
+    nodes = np.concatenate([p[1] for p in parts])[order]
+    shares = np.concatenate([p[2] for p in parts])[order]
+    return ids[order], nodes, shares
 
 
 class WholeMesh:

@@ -42,6 +42,21 @@ class BodyKind:
     fault = None
     #: with ``owns_nodes``: the coarse-grid speed of the same Courant number as its step
     speed = 0.0
+    #: what :meth:`elements_changed` calls, in the order they were added
+    element_listeners = ()
+
+    def when_elements_change(self, listener):
+        """Have ``listener()`` called each time this kind's set of elements changes
+        (:meth:`elements_changed`): the couplings that keep what depends on the mesh
+        (free faces, halos) listen, so that whatever changed the elements need not know
+        them."""
+        self.element_listeners = (*self.element_listeners, listener)
+
+    def elements_changed(self):
+        """Raised by the kind, collectively, once its elements have changed (removed,
+        or moved to other ranks): every listener rebuilds what depends on them."""
+        for listener in self.element_listeners:
+            listener()
 
     def take_loads(self, vectors):
         """The load vectors of the case's loads at the step's mid-time."""

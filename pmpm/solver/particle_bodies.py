@@ -228,6 +228,15 @@ class ParticleBodies(BodyKind):
         keys = mpm.cell_keys(p.x, grid.origin, 1.0 / grid.h, grid.n_cells)
         p.take(np.argsort(keys, kind="stable"))
 
+    # -- particles from elsewhere -------------------------------------------------------
+    def add_particles(self, columns):
+        """Take particles that another body kind hands over in a step (a transfer,
+        pmpm.solver.transfer; ``columns``: name -> array, every column of the store):
+        appended at the end of the store; the next step gives them their grid levels,
+        and the end of this one their ranks, like the others. Returns how many."""
+        self.particles.append(columns)
+        return len(columns["mass"])
+
     # -- refinement (seed 000 Sec. 3.4) -------------------------------------------------
     def split_entering(self, ratios, id_base, id_stride):
         """Split every particle whose spacing is coarser than the window it is in: a

@@ -17,17 +17,20 @@ and in which the step calls the couplings' hooks: grid contact before what reads
 fields, the force log last. A part that a checkpoint keeps names its scalar there
 (:class:`Kept`).
 
+Each entry also declares the warm-up's kernels it needs for a case (``warms(config)``:
+names of :data:`pmpm.kernels.warmup.ALL_COUPLINGS`), which the warm-up asks for before
+anything is built (:func:`kernels_to_warm`).
+
 Adding a coupling or a transfer is its module plus one entry here (with its case keys in
-pmpm/case); the simulation and the step do not change.
+pmpm/case); the simulation, the step and the warm-up do not change.
 """
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
 
-from .bodies import converted_spacing
 from .contact import SURFACE_COUPLING, GridContact, start_shares
-from .conversion import Conversion, ConversionRules
+from .conversion import build_conversion
 from .couplings import TiedInterface
 from .fem_bodies import FemBodies
 from .fem_grid import grid_coupled_nodes
@@ -35,13 +38,17 @@ from .forces import ForceLog
 from .node_contact import NodeContact, check_node_contact, node_contact_pairs
 from .rigid_particles import free_rigid_particles
 from .surface_contact import SurfaceContact
-from .transfer import ElementsToParticles
 
 __all__ = ["COUPLING", "KIND", "KINDS", "PARTS", "TRANSFER", "Entry", "KindEntry", "Kept",
-           "Setup", "build_parts", "initial_kinds", "restored_kinds"]
+           "Setup", "build_parts", "initial_kinds", "kernels_to_warm", "restored_kinds"]
 
 #: the roles of the parts: where the simulation hands them to the step
 COUPLING, KIND, TRANSFER = "coupling", "kind", "transfer"
+
+
+def no_kernels(config):
+    """What a part that needs no kernel of the warm-up's couplings declares."""
+    return ()
 
 
 @dataclass(frozen=True)
@@ -51,11 +58,12 @@ class KindEntry:
     ``initial(world, config, bodies, grid, slabs, layout)`` -> (the kind, the problems of
     its set-up) from the initial layout (``Simulation.lay_out``'s ``meshes``), and
     ``restored(world, config, bodies, grid, slabs, groups)`` -> the kind from a
-    checkpoint's row sets."""
+    checkpoint's row sets; ``warms``: the warm-up's kernels of the kind."""
     method: str
     name: str
     initial: Callable
     restored: Callable
+    warms: tuple = ()
 
 
 def initial_fem_bodies(world, config, bodies, grid, slabs, meshes):
@@ -73,7 +81,7 @@ def restored_fem_bodies(world, config, bodies, grid, slabs, groups):
 
 #: the body kinds beyond the particles, by the ``method`` of their bodies, in the order
 #: their parts are summed (after the particles)
-KINDS = (KindEntry("fem", "elements", initial_fem_bodies, restored_fem_bodies),)
+KINDS = (KindEntry("fem", "elements", initial_fem_bodies, restored_fem_bodies, ("fem",)),)
 
 
 def asked_kinds(config):
@@ -114,12 +122,16 @@ class Kept:
 class Entry:
     """One part of the registry: ``name`` (the simulation's attribute for it, None when
     the case does not ask for it), ``key`` (the case key that asks for it), ``role``,
-    ``build(setup)`` (the part, or None) and ``kept`` (a Kept, or None)."""
+    ``build(setup)`` (the part, or None), ``kept`` (a Kept, or None) and
+    ``warms(config)`` (the names of the warm-up's kernels the part needs for the case,
+    pmpm.kernels.warmup.ALL_COUPLINGS: it must name whatever a part it would build
+    calls in the steps)."""
     name: str
     key: str
     role: str
     build: Callable
     kept: Kept = None
+    warms: Callable = no_kernels
 
 
 @dataclass
@@ -147,11 +159,6 @@ class Setup:
     def part(self, name):
         """The part built under ``name``, or None."""
         return self.built.get(name)
-
-    def converted_spacing(self):
-        """Per body the spacing of the particles its elements convert into (0: none)."""
-        cell = self.config.grid.cell
-        return [cell * converted_spacing(b, cell) for b in self.config.bodies]
 
 
 # -- the builders, one per entry ---------------------------------------------------------
@@ -181,18 +188,19 @@ def grid_coupled_fe_nodes(setup):
 
 
 def surface_contact(setup):
-    """Where a particle body meets an FEM body by surface coupling, or an FEM body's
-    elements convert into particles (which meet what is left of the mesh)."""
+    """Where a particle body meets an FEM body by surface coupling, or particles may be
+    born of an FEM body's elements (``BodyTable.born_spacing``: they meet what is left
+    of the mesh)."""
     elements, config = setup.elements, setup.config
     if not elements:
         return None
     fem = np.array([b.is_fem for b in config.bodies])
     surface = setup.rules.coupling == SURFACE_COUPLING
-    converts = any(b.convert for b in config.bodies)
-    if not ((surface & (fem[:, None] != fem[None, :])).any() or converts):
+    born = bool(setup.bodies.born_spacing.any())
+    if not ((surface & (fem[:, None] != fem[None, :])).any() or born):
         return None
     return SurfaceContact(setup.rules, setup.world, setup.points, elements, setup.grid,
-                          setup.decomposition, setup.converted_spacing())
+                          setup.decomposition)
 
 
 def node_contact(setup):
@@ -206,16 +214,6 @@ def node_contact(setup):
         return None
     check_node_contact(setup.config, setup.rules, touches)
     return NodeContact(setup.rules, setup.world, elements, setup.grid)
-
-
-def conversion(setup):
-    """Elements that turn into particles (``bodies[i].fem.convert``)."""
-    rules = ConversionRules(setup.config)
-    if setup.elements is None or not rules.active:
-        return None
-    mover = ElementsToParticles(setup.world, setup.elements, setup.points, setup.couplings)
-    return Conversion(setup.world, rules, mover, setup.n_total, setup.grid.h,
-                      [b.particles_per_cell for b in setup.config.bodies])
 
 
 def force_log(setup):
@@ -247,19 +245,79 @@ def set_deepest(contact, value):
     contact.deepest = value
 
 
+# -- what the parts warm up, from the case alone (before anything is built) -------------
+def named_couplings(config):
+    """The couplings the case names (``contact.coupling`` and its pairs')."""
+    return {config.contact.coupling} | {p.coupling for p in config.contact.pairs}
+
+
+def with_grid_contact(config):
+    """Whether grid contact may run: a contact method and two bodies or more."""
+    return config.contact.method > 0 and len(config.bodies) > 1
+
+
+def fem_and_particles(config):
+    """(whether some body is FEM, whether some body is particles)."""
+    fem = [b.is_fem for b in config.bodies]
+    return any(fem), not all(fem)
+
+
+def warms_free_rigid(config):
+    """The force log's impulses of free rigid particle bodies."""
+    free = any(not b.is_fem and b.free_axes for b in config.bodies)
+    return ("free_rigid",) if with_grid_contact(config) and free else ()
+
+
+def warms_fem_grid(config):
+    fem, particles = fem_and_particles(config)
+    grid = "grid" in named_couplings(config)
+    return ("fem_grid",) if fem and particles and with_grid_contact(config) and grid else ()
+
+
+def warms_surface(config):
+    """Where surface coupling may meet particles, or particles may be born of an FEM
+    body's elements."""
+    fem, particles = fem_and_particles(config)
+    born = any(b.born_spacing for b in config.bodies)
+    return ("surface",) if fem and ("surface" in named_couplings(config) and particles
+                                    or born) else ()
+
+
+def warms_node_contact(config):
+    fem = sum(b.is_fem for b in config.bodies)
+    return ("node_contact",) if "surface" in named_couplings(config) and fem > 1 else ()
+
+
+def warms_forces(config):
+    return ("forces",) if config.output.forces else ()
+
+
 #: every part a case may ask for, in build and step order
 PARTS = (
     Entry("tied_interface", "grid.windows", COUPLING, tied_interface),
     Entry("grid_contact", "contact.method", COUPLING, grid_contact),
-    Entry("rigid_particles", "bodies[i].rigid.free", COUPLING, rigid_particles),
-    Entry("grid_nodes", "contact.coupling: grid", KIND, grid_coupled_fe_nodes),
+    Entry("rigid_particles", "bodies[i].rigid.free", COUPLING, rigid_particles,
+          warms=warms_free_rigid),
+    Entry("grid_nodes", "contact.coupling: grid", KIND, grid_coupled_fe_nodes,
+          warms=warms_fem_grid),
     Entry("surface", "contact.coupling: surface", COUPLING, surface_contact,
-          Kept("surface_deepest", 0.0, SurfaceContact.deepest_centre, set_deepest)),
+          Kept("surface_deepest", 0.0, SurfaceContact.deepest_centre, set_deepest),
+          warms=warms_surface),
     Entry("node_contact", "contact.coupling: surface", COUPLING, node_contact,
-          Kept("node_deepest", 0.0, NodeContact.deepest_node, set_deepest)),
-    Entry("conversion", "bodies[i].fem.convert", TRANSFER, conversion, Kept("convert")),
-    Entry("force_log", "output.forces", COUPLING, force_log, Kept("forces")),
+          Kept("node_deepest", 0.0, NodeContact.deepest_node, set_deepest),
+          warms=warms_node_contact),
+    Entry("conversion", "bodies[i].fem.convert", TRANSFER, build_conversion,
+          Kept("convert")),
+    Entry("force_log", "output.forces", COUPLING, force_log, Kept("forces"),
+          warms=warms_forces),
 )
+
+
+def kernels_to_warm(config, registry=PARTS):
+    """The names of the warm-up's coupling kernels (pmpm.kernels.warmup.ALL_COUPLINGS)
+    that the case's kinds and the registry's parts declare for ``config``."""
+    names = {name for entry in asked_kinds(config) for name in entry.warms}
+    return names | {name for entry in registry for name in entry.warms(config)}
 
 
 def build_parts(setup, registry=PARTS):

@@ -42,7 +42,7 @@ class Simulation:
             elements.rigid_motion = motion if motion.active else None
         n_total = max(world.sum(particles.n), 1)
         mean_mass = world.sum(float(particles.mass.sum())) / n_total
-        if mean_mass == 0 and elements:          # FEM bodies only (they may convert)
+        if mean_mass == 0 and elements:          # FEM bodies only (particles may come)
             mean_mass = world.sum(float(elements.element_mass.sum())) / max(
                 elements.n_elements_total, 1)
         m_tiny = 1e-12 * mean_mass
@@ -73,6 +73,9 @@ class Simulation:
         #: every body kind, in the order their parts are summed (solver.kinds)
         self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
             + self.parts_of(KIND)
+        for kind in self.all_kinds:       # the couplings follow the kinds' meshes
+            for coupling in setup.couplings:
+                kind.when_elements_change(coupling.after_elements_changed)
         self.grids.coarse.exact = config.grid.exact_sums and not self.windows and \
             [k for k in self.all_kinds if k.on_grid] == [self.points]
         self.points.exact = self.grids.coarse.exact
@@ -189,12 +192,10 @@ class Simulation:
 
     def rebalance(self, threshold):
         """Rebalance the slabs; FEM elements whose centroid left their rank's slab
-        migrate."""
+        migrate (and their kind tells the couplings, ``elements_changed``)."""
         result = self.decomposition.rebalance(threshold, self.kinds, self.rebalancing())
-        moved = [kind.migrate(self.grid, self.slabs) for kind in self.rebalancing()]
-        if any(moved):
-            for coupling in self.stepper.couplings:
-                coupling.after_elements_changed()   # the faces of the elements held here
+        for kind in self.rebalancing():
+            kind.migrate(self.grid, self.slabs)
         return result
 
     def rebalancing(self):
@@ -359,8 +360,8 @@ def time_factor(function, t):
 
 
 def merged_stats(elements, particles):
-    """One body's summary entry from its elements' and its particles' (the particles
-    its converted elements became): masses, counts and moments add, boxes join."""
+    """One body's summary entry from its elements' and its particles' (those born of
+    its elements): masses, counts and moments add, boxes join."""
     if particles["n_particles"] == 0:
         return elements
     mass = elements["mass"] + particles["mass"]

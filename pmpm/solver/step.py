@@ -31,10 +31,9 @@ class Stepper:
     scheme : a scheme of pmpm.solver.schemes
     refiner : solver.refine.Refiner   windows that move, particles that split
     m_tiny : float   nodal mass below which a node counts as empty
-    transfers : list of objects whose ``transfer()`` moves material from one kind to
-        another once the points have moved (through solver.transfer.ElementsToParticles:
-        solver.conversion.Conversion), before windows split particles and points
-        migrate
+    transfers : list of solver.transfer.Transfer   the registry's transfers, whose
+        ``transfer()`` moves material from one kind to another once the points have
+        moved, before windows split particles and points migrate
     """
 
     def __init__(self, decomposition, grids, kinds, couplings, scheme, refiner, m_tiny,

@@ -127,8 +127,7 @@ class SurfaceContact(Coupling):
     decomposition : solver.decomposition.Decomposition   the current slabs
     """
 
-    def __init__(self, rules, world, points, elements, grid, decomposition,
-                 converted_spacing=None):
+    def __init__(self, rules, world, points, elements, grid, decomposition):
         self.world, self.points, self.elements = world, points, elements
         self.grid, self.decomposition = grid, decomposition
         nb = len(rules.coupling)
@@ -137,12 +136,11 @@ class SurfaceContact(Coupling):
         rigid = np.asarray(points.bodies.rigid, bool)
         surface = rules.coupling == SURFACE_COUPLING
         self.touches = surface & ~fem[:, None] & fem[None, :] & ~rigid[:, None]
-        spacing = np.zeros(nb) if converted_spacing is None else \
-            np.asarray(converted_spacing, np.float64)
-        # an FEM body's converted particles meet what is left of its own mesh and every
-        # FEM body it meets with surface coupling (pmpm.solver.conversion)
-        converts = spacing > 0
-        self.touches |= converts[:, None] & fem[None, :] & (surface | np.eye(nb, dtype=bool))
+        spacing = grid.h * points.bodies.born_spacing
+        # the particles born of an FEM body's elements meet what is left of its own mesh
+        # and every FEM body it meets with surface coupling (BodyTable.born_spacing)
+        born = spacing > 0
+        self.touches |= born[:, None] & fem[None, :] & (surface | np.eye(nb, dtype=bool))
         self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
         self.friction = np.ascontiguousarray(rules.friction, np.float64)
         p = points.particles
@@ -161,8 +159,9 @@ class SurfaceContact(Coupling):
         """The free faces of this rank's elements of master bodies (collective among the
         ranks that share nodes): ``face_nodes`` (nf, 4) local node indices, ``face_key``
         element id * 6 + face; and each local node's holders (ranks, padded with -1).
-        Every rank calls it again whenever the elements it holds change (migration, and
-        elements removed or converted: a face whose neighbour is gone becomes free)."""
+        Every rank calls it again whenever the elements it holds change (the FEM kind's
+        ``elements_changed``: migration, and elements removed, whose neighbours' faces
+        become free)."""
         fem = self.elements
         faces = fem.hexes[:, FACES].reshape(-1, 4)
         key = (fem.element_id[:, None] * 6 + np.arange(6)).ravel().astype(np.int64)

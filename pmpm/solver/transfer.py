@@ -2,13 +2,13 @@
 points and the FE nodes have moved, before the windows split particles and the points
 migrate (:meth:`pmpm.solver.step.Stepper.step`).
 
-A transfer (:class:`Transfer`) decides *what* moves (conversion's criteria and the
-particles it makes, pmpm.solver.conversion); :class:`ElementsToParticles` does the
-moving that any such rule needs, so that the rule's module holds the rule alone: every
-rank's elements' shares of their nodes' masses gathered and taken off in element id order
-(every copy of a shared node, and 1 rank against N, agree), the elements and the nodes
-no element uses dropped, the particles added, and the couplings told that the mesh changed
-(``after_elements_changed``: surface contact's free faces), all collective.
+A transfer (:class:`Transfer`, built from a ``TRANSFER`` entry of pmpm.solver.registry)
+decides *what* moves and what it becomes; the kinds do the moving with general
+operations that do not know the rule: :class:`ElementsToParticles` takes the chosen
+elements out of the mesh (``FemBodies.remove_elements``: the nodes' mass shares in
+element id order, nodes left without elements dropped, halos found again, and the kind's
+``elements_changed`` event, on which the couplings rebuild their free faces) and hands
+the particles to the particle bodies (``ParticleBodies.add_particles``), all collective.
 """
 import numpy as np
 
@@ -39,13 +39,10 @@ class ElementsToParticles:
     world : comm.World
     elements : solver.fem_bodies.FemBodies   (the elements are removed there)
     points : solver.particle_bodies.ParticleBodies   (the particles are added there)
-    couplings : list of solver.couplings.Coupling   (told ``after_elements_changed``; the
-        list the step runs, filled by the time a step moves anything)
     """
 
-    def __init__(self, world, elements, points, couplings):
+    def __init__(self, world, elements, points):
         self.world, self.elements, self.points = world, elements, points
-        self.couplings = couplings
 
     def move(self, chosen, born):
         """Replace this rank's elements ``chosen`` (bool) by the particle columns ``born``.
@@ -55,23 +52,10 @@ class ElementsToParticles:
         the elements)."""
         fem = self.elements
         before = fem.kinetic_energy_of_nodes()
-        shares = self.world.allgather(fem.mass_shares(chosen))
-        fem.remove_elements(chosen, merge_shares(shares))
+        fem.remove_elements(chosen)
         loss = before - fem.kinetic_energy_of_nodes() - kinetic(born)
-        self.points.particles.append(born)
-        for coupling in self.couplings:
-            coupling.after_elements_changed()
+        self.points.add_particles(born)
         return int(self.world.sum(int(chosen.sum()))), loss
-
-
-def merge_shares(parts):
-    """Every rank's (element ids, node ids (m, 8), mass shares (m,)) as one set of
-    rows, in element id order."""
-    ids = np.concatenate([p[0] for p in parts])
-    order = np.argsort(ids, kind="stable")
-    nodes = np.concatenate([p[1] for p in parts])[order]
-    shares = np.concatenate([p[2] for p in parts])[order]
-    return ids[order], nodes, shares
 
 
 def kinetic(columns):
