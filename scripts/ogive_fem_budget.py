@@ -164,7 +164,7 @@ def plate_energies(fem):
     """The plate's elements' hourglass (with the converted ones'), internal and
     kinetic energies (mJ), and the rod's kinetic, internal and hourglass energies (its
     elements)."""
-    stats = fem.body_stats()
+    stats = fem.body_stats(fem.world)
     plate, rod = stats["plate"]["energy"], stats["rod"]["energy"]
     return {"plate_hg": plate["hourglass"] + fem.removed_hourglass,  # rod's too, if any
             "plate_int": plate["internal"], "plate_kin": plate["kinetic"],
