@@ -105,3 +105,74 @@ def test_grid_contact_across_the_slab_plane_is_exact_too():
     off = ["grid.exact_sums=false"]                  # auto is on where bodies touch
     (plain, _), (plain_one, _) = spheres(off, world), spheres(off)
     assert not np.array_equal(plain[2], plain_one[2])
+
+
+HERTZ = os.path.join(os.path.dirname(RUNS), "tests", "cases", "hertz.yaml")
+FOLLOW = os.path.join(os.path.dirname(RUNS), "tests", "cases", "window_follow.yaml")
+
+
+def windowed(case, overrides, steps, world=None):
+    """The simulation, the particles (id, x, v, stress) by id and their first ranks
+    (id, rank) after ``steps`` steps of the run loop's CFL step, sorting and rebalancing
+    every 10 steps; ``sim.first_window_lo``: the windows' first lower corners."""
+    sim = set_up(case, overrides, world)
+    sim.first_window_lo = [w.lo.copy() for w in sim.windows]
+    start = ranks_by_id(sim, world)
+    for step in range(1, steps + 1):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+        if step % 10 == 0:
+            sim.sort_by_cell()
+            sim.rebalance(0.02)
+    p = sim.particles
+    return sim, by_id(world, p.id, p.x, p.v, p.stress), start
+
+
+def ranks_by_id(sim, world):
+    """(id, the rank holding it) of every particle."""
+    p = sim.particles
+    return by_id(world, p.id, np.full(p.n, world.rank if world else 0))
+
+
+#: two spheres meeting inside a window refined twice that the slab plane cuts in two
+#: (gimp, contact method 2, the release rule's volume gap; auto turns the sums on)
+HERTZ_SETS = ["params.R=3", "params.gap=0.1", "decomposition.axis=z"]
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_window_with_contact_across_the_slab_plane_is_exact():
+    world = comm_world()
+    many, got, _ = windowed(HERTZ, HERTZ_SETS, 100, world)
+    _, expected, _ = windowed(HERTZ, HERTZ_SETS, 100)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    a = many.slabs.axis
+    cut = many.grid.origin[a] + many.slabs.bounds[1] * many.grid.h
+    window = many.windows[0]
+    assert window.lo[a] * many.grid.h + many.grid.origin[a] < cut < \
+        window.hi[a] * many.grid.h + many.grid.origin[a]        # the cut runs through it
+    contact, = (c for c in many.stepper.couplings if hasattr(c, "n_slots"))
+    assert world.sum(contact.fields[1].n_slots) > 0       # the spheres touch in the window
+    off = ["grid.exact_sums=false"]
+    _, plain, _ = windowed(HERTZ, HERTZ_SETS + off, 100, world)
+    _, plain_one, _ = windowed(HERTZ, HERTZ_SETS + off, 100)
+    assert not np.array_equal(plain[2], plain_one[2])
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_window_that_follows_a_body_across_the_slab_plane_is_exact():
+    """tests/cases/window_follow.yaml (the hats, contact method 2 on: auto turns the sums
+    on): the cube and its window cross the slab plane, the plate's particles split."""
+    world = comm_world()
+    many, got, start = windowed(FOLLOW, [], 300, world)
+    _, expected, _ = windowed(FOLLOW, [], 300)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    a = many.slabs.axis
+    assert many.windows[0].lo[a] > many.first_window_lo[0][a]        # the window moved
+    assert len(got[0]) > len(start[0])                     # particles were split
+    end = ranks_by_id(many, world)
+    _, now, then = np.intersect1d(end[0], start[0], return_indices=True)
+    assert (end[1][now] != start[1][then]).any()           # particles changed rank
+    _, plain, _ = windowed(FOLLOW, ["grid.exact_sums=false"], 300, world)
+    _, plain_one, _ = windowed(FOLLOW, ["grid.exact_sums=false"], 300)
+    assert not np.array_equal(plain[2], plain_one[2])

@@ -178,6 +178,24 @@ def slaves_to_masters(ties, fine, coarse):
 
 
 @njit(cache=True)
+def slaves_to_masters_in_rows(ties, fine, coarse, slave_rows, master_rows):
+    """:func:`slaves_to_masters` for the ties whose slave row is in ``slave_rows`` and
+    the masters whose row is in ``master_rows`` ((first, stop) each), in the same order:
+    each master's terms by slave row. The tied interface's exact sums split one rank's
+    adds into those of the ranks that own the slaves (``pmpm.solver.couplings``)."""
+    slaves, masters, weights, count = ties
+    for t in range(count):
+        s = slaves[t]
+        if s < slave_rows[0] or s >= slave_rows[1]:
+            continue
+        for k in range(8):
+            m = masters[t, k]
+            if m >= master_rows[0] and m < master_rows[1]:
+                for c in range(fine.shape[1]):
+                    coarse[m, c] += weights[t, k] * fine[s, c]
+
+
+@njit(cache=True)
 def masters_to_slaves(ties, coarse, fine):
     """fine[s] = sum_m phi_m coarse[m]: slave velocity (Eq. 22) or end-of-step velocity
     and acceleration (Eqs. 23-24) interpolated from the master nodes."""

@@ -45,9 +45,9 @@ class ParticleBodies(BodyKind):
         self.level_of = np.zeros(0, np.int32)
         self.work = Workspace()
         self.fault = None
-        #: the canonical order of the layer-ordered scatters (set by each mass scatter)
-        self.order = np.zeros(0, np.int64)
-        self.order_of = None        # the id column self.order sorts
+        #: per grid level, the canonical order of the layer-ordered scatters and the id
+        #: column it sorts (set by each mass scatter)
+        self.orders = {}
         self.exact = False          # layer-ordered sums (set by the simulation)
 
     # -- records --------------------------------------------------------------------
@@ -80,26 +80,40 @@ class ParticleBodies(BodyKind):
 
     # -- phases ------------------------------------------------------------------------
     def scatter_mass_momentum(self, state):
-        if state.exact and state.index == 0:       # the points' positions of this scatter
-            self.order = self.canonical_order(state.level.origin, state.level.inv_h,
-                                              state.level.n_cells, state.block.slab_axis)
+        if state.exact:              # the points' positions of this scatter
+            lv = state.level
+            order = self.canonical_order(lv.origin, lv.inv_h, lv.n_cells,
+                                         state.block.slab_axis, state.index)
+            self.orders[state.index] = (order, self.particles.id)
         mpm.particles_to_grid(self.points(), self.bodies.rigid, state.geometry, state.nodal,
                               state.index, self.affine(),
-                              state.layer_sums("nodal", mpm.NODAL_COMPONENTS, self.order))
+                              state.layer_sums("nodal", mpm.NODAL_COMPONENTS,
+                                               self.order_on(state)))
 
-    def canonical_order(self, origin, inv_h, n_cells, axis):
-        """The particles by (cell with the slab ``axis`` slowest, id): a rank's particles
-        are then a contiguous run of the one-rank order, whatever migration appended
-        (``pmpm.kernels.layered``)."""
+    @property
+    def order(self):
+        """The canonical order on the coarse grid (its last mass scatter's)."""
+        return self.orders.get(0, (NO_ORDER,))[0]
+
+    def order_on(self, state):
+        """The canonical order of the level ``state``'s layer-ordered scatters (that of
+        its last mass scatter)."""
+        return self.orders.get(state.index, (NO_ORDER,))[0]
+
+    def canonical_order(self, origin, inv_h, n_cells, axis, index=0):
+        """The particles by (cell of the grid level ``index`` (cell size 1 / ``inv_h``)
+        with the slab ``axis`` slowest, id): a rank's particles of a cell layer are then
+        the one-rank order's, whatever migration appended, and a layer's particles are
+        one run of it (``pmpm.kernels.layered``)."""
         p = self.particles
         keys = self.work.empty("keys", p.n, 1, np.int64)[:, 0]
         if not mpm.canonical_keys(p.x, p.id, origin, inv_h, n_cells, axis, keys):
             return np.lexsort((p.id, mpm.slab_cell_keys(p.x, origin, inv_h, n_cells, axis)))
-        order = self.order.copy() if self.order_of is p.id and len(self.order) == p.n \
+        last, of = self.orders.get(index, (NO_ORDER, None))
+        order = last.copy() if of is p.id and len(last) == p.n \
             else np.arange(p.n, dtype=np.int64)     # the last step's, if still the same
-        self.order_of = p.id                         # columns (migration replaces them)
-        if mpm.sort_nearly_sorted(keys, order, 8 * p.n):
-            return order
+        if mpm.sort_nearly_sorted(keys, order, 8 * p.n):      # columns (migration
+            return order                                       # replaces them)
         return np.argsort(keys, kind="stable")
 
     def mark_occupied(self, coarse, occupied):
@@ -112,7 +126,8 @@ class ParticleBodies(BodyKind):
         kc.body_masks(self.points(), state.geometry, mask, state.index)
 
     def scatter_contact(self, state, slot_of, cnodal):
-        layers = state.layer_sums("cnodal", cnodal.shape[1] * cnodal.shape[2], self.order,
+        layers = state.layer_sums("cnodal", cnodal.shape[1] * cnodal.shape[2],
+                                  self.order_on(state),
                                   state.slot_starts)
         kc.contact_particles_to_grid(self.points(), state.geometry, slot_of, cnodal,
                                      state.index, self.affine(), layers)
@@ -125,7 +140,7 @@ class ParticleBodies(BodyKind):
         volume = self.work.empty("volume", p.n, 1)[:, 0]
         np.divide(p.mass, p.rho, out=volume)
         kc.contact_volumes(self.points(), volume, state.geometry, slot_of, cvol, state.index,
-                           state.layer_sums("cvol", cvol.shape[1], self.order,
+                           state.layer_sums("cvol", cvol.shape[1], self.order_on(state),
                                             state.slot_starts))
 
     def stress_and_forces(self, state, dt, contact):
@@ -148,8 +163,8 @@ class ParticleBodies(BodyKind):
         fastest, bad = mpm.stress_and_forces(
             self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
             state.geometry, state.gvel, state.force, contact, state.index, stresses, forces,
-            state.layer_sums("force", 3, self.order) if forces else None,
-            state.layer_sums("cforce", contact.cforce.shape[1] * 3, self.order,
+            state.layer_sums("force", 3, self.order_on(state)) if forces else None,
+            state.layer_sums("cforce", contact.cforce.shape[1] * 3, self.order_on(state),
                              state.slot_starts) if forces and contact is not None else None)
         self.note_fault(bad, FAILED_UPDATE)
         return fastest * lv.ratio
@@ -245,4 +260,5 @@ class ParticleBodies(BodyKind):
         return p.mass[mine] @ p.x[mine], p.mass[mine].sum()
 
 
+NO_ORDER = np.zeros(0, np.int64)
 FAILED_UPDATE = "constitutive update failed (NaN, non-convergence or non-positive density)"

@@ -73,9 +73,11 @@ class Simulation:
         #: every body kind, in the order their parts are summed (solver.kinds)
         self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
             + self.parts_of(KIND)
-        self.grids.coarse.exact = config.grid.exact_sums and not self.windows and \
+        exact = config.grid.exact_sums and \
             [k for k in self.all_kinds if k.on_grid] == [self.points]
-        self.points.exact = self.grids.coarse.exact
+        for level in self.grids:                # the windows' ties: solver.couplings
+            level.exact = exact
+        self.points.exact = exact
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds,
                                setup.couplings, make_scheme(config.time.scheme),
                                self.refiner, m_tiny, transfers)
