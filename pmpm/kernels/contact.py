@@ -96,8 +96,9 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want, affine=None, laye
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
-            leave_layer(layer, current, flat, scratch, starts, halo, kept)
-            current, shift = layer, starts[layer - halo]
+            if layer != current:
+                leave_layer(layer, current, flat, scratch, starts, halo, kept)
+                current, shift = layer, starts[layer - halo]
         b, m = body[p], mass[p]
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
         if affine is not None:
@@ -462,8 +463,9 @@ def contact_volumes(pts, volume, geo, slot_of, cvol, want, layers=None):
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
-            leave_layer(layer, current, cvol, acc, starts, halo, kept)
-            current, shift = layer, starts[layer - halo]
+            if layer != current:
+                leave_layer(layer, current, cvol, acc, starts, halo, kept)
+                current, shift = layer, starts[layer - halo]
         b, vp = body[p], volume[p] * inv_h ** 3
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
         for a in range(reach):

@@ -31,8 +31,9 @@ A scatter kernel's particle loop, with or without a record::
         ...
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
-            leave_layer(layer, current, target, scratch, starts, halo, kept)
-            current, shift = layer, starts[layer - halo]
+            if layer != current:    # here, not in leave_layer: 2.5 times faster
+                leave_layer(layer, current, target, scratch, starts, halo, kept)
+                current, shift = layer, starts[layer - halo]
         ...             # add into scratch at row - shift
     if layers is not None:
         leave_layer(NO_LAYER, current, target, scratch, starts, halo, kept)

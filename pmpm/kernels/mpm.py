@@ -52,8 +52,9 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
-            leave_layer(layer, current, nodal, acc, starts, halo, kept)
-            current, shift = layer, starts[layer - halo]
+            if layer != current:
+                leave_layer(layer, current, nodal, acc, starts, halo, kept)
+                current, shift = layer, starts[layer - halo]
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
         if shape != LINEAR and affine is None:      # the tensor product, row by row
@@ -303,11 +304,12 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
-            leave_layer(layer, current, force, acc, starts, halo, kept)
-            if contact is not None and clayers is not None:
-                leave_layer(layer, current, cflat, cscratch, cstarts, halo, ckept)
-                cshift = cstarts[layer - halo]
-            current, shift = layer, starts[layer - halo]
+            if layer != current:
+                leave_layer(layer, current, force, acc, starts, halo, kept)
+                if contact is not None and clayers is not None:
+                    leave_layer(layer, current, cflat, cscratch, cstarts, halo, ckept)
+                    cshift = cstarts[layer - halo]
+                current, shift = layer, starts[layer - halo]
         b = body[p]
         if rigid[b]:               # moves with its own velocity, which limits the step too
             if stresses:
