@@ -176,3 +176,43 @@ def test_a_window_that_follows_a_body_across_the_slab_plane_is_exact():
     _, plain, _ = windowed(FOLLOW, ["grid.exact_sums=false"], 300, world)
     _, plain_one, _ = windowed(FOLLOW, ["grid.exact_sums=false"], 300)
     assert not np.array_equal(plain[2], plain_one[2])
+
+
+BOUNCE = os.path.join(os.path.dirname(RUNS), "tests", "cases", "fem_grid_bounce.yaml")
+
+
+def bounce(overrides, world=None, steps=150):
+    """Particles (id, x, v, eps_p) and owned FE nodes (id, x, v, mass) by id after
+    ``steps`` steps of the block bouncing off the grid-coupled FEM plate (CFEMP, method
+    2; the FEM body turns the sums on), rebalancing every 10 steps."""
+    sim = set_up(BOUNCE, ["params.tilt=0.5"] + overrides, world)
+    for step in range(1, steps + 1):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+        if step % 10 == 0:
+            sim.sort_by_cell()
+            sim.rebalance(0.02)
+    return sim, state(sim, world)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.parametrize("plate_end", ["0.036", "0.018"])
+def test_grid_coupled_fe_nodes_are_exact(plate_end):
+    """The FE nodes' mass, momentum, forces and contact fields on the grid are summed
+    as a part of their own (layer-ordered, by node id) and added to the particles'
+    complete sums: the block and the plate on 2 ranks equal 1 rank bitwise, the plate
+    spanning the slab plane (0.036) or ending on it (0.018: nodes lent to the upper
+    rank); summed in array order they part."""
+    world = comm_world()
+    sets = [f"params.plate_end={plate_end}"]
+    many, got = bounce(sets, world)
+    _, expected = bounce(sets)
+    for part, one in zip(got, expected):
+        for a, b in zip(part, one):
+            assert np.array_equal(a, b)
+    assert many.grids.coarse.exact and many.slabs.size >= 2
+    assert got[0][2][:, 2].max() > -2.0                      # the block hit the plate
+    off = ["grid.exact_sums=false"]
+    _, plain = bounce(sets + off, world)
+    _, plain_one = bounce(sets + off)
+    assert not all(np.array_equal(a, b) for a, b in zip(plain[0] + plain[1],
+                                                         plain_one[0] + plain_one[1]))

@@ -11,6 +11,8 @@ from ..kernels.records import GridGeometry, LayerSums, NodeBlock
 from .workspace import Workspace
 
 NO_PAIRS = np.zeros((0, 3), np.int64)
+#: the suffix of the names of a second kind's layer-ordered sums (grid-coupled FE nodes)
+PART = "/part"
 
 
 def as_rows(array, width):
@@ -49,6 +51,9 @@ class LevelState:
         self.plane_starts = np.zeros(1, np.int64)
         #: the rows of the node planes this rank's slab owns (set with the block)
         self.owned_rows = (0, 0)
+        #: a second kind's layer-ordered sums of this step by array name (grid-coupled
+        #: FE nodes), added to the array once both are summed over the shared planes
+        self.parts = {}
 
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
@@ -80,6 +85,16 @@ class LevelState:
         layers = layer_record(self.work, name, order, b, starts, self.level.halo, width)
         self.kept[name] = layers.kept
         return layers
+
+    def part(self, name, shape):
+        """A zeroed array ``shape`` (rows first) for a second kind's layer-ordered sums
+        into the array ``name`` (its LayerSums named ``name + PART``): summed over the
+        shared planes on its own, then added to the array (:meth:`Hierarchy.sum_shared`,
+        ``ContactFields.sum_on_shared_planes``). One rank then adds the two kinds'
+        complete sums as every rank count does."""
+        flat = self.work.zeros(name + PART, shape[0], int(np.prod(shape[1:])))
+        self.parts[name] = flat.reshape(shape)
+        return self.parts[name]
 
     def add_rows(self, name, array, node, x, key, values):
         """``array[node] += values`` row by row (``array`` (n_nodes, c) zeros, ``values``
@@ -200,15 +215,23 @@ class Hierarchy:
             setattr(s, name, s.work.empty(name, s.block.n_nodes, width))
 
     def sum_shared(self, name):
-        """Sum the nodal array ``name`` on the slab planes shared with neighbours."""
+        """Sum the nodal array ``name`` on the slab planes shared with neighbours (and a
+        second kind's part of it, then added: :meth:`LevelState.part`)."""
         for s in self.states:
-            b = s.block
             array = getattr(s, name)
-            if s.exact and name in s.kept:          # a layer-ordered scatter's array
-                sum_shared_planes_in_layer_order(self.world, b.shared_planes, b.as_planes(array),
-                                                 s.kept_planes(name, array.shape[1]))
-            else:
-                sum_shared_planes(self.world, b.shared_planes, b.as_planes(array))
+            self.sum_array(s, name, array)
+            part = s.parts.pop(name, None)
+            if part is not None:
+                self.sum_array(s, name + PART, part)
+                array += part
+
+    def sum_array(self, s, name, array):
+        b = s.block
+        if s.exact and name in s.kept:          # a layer-ordered scatter's array
+            sum_shared_planes_in_layer_order(self.world, b.shared_planes, b.as_planes(array),
+                                             s.kept_planes(name, array.shape[1]))
+        else:
+            sum_shared_planes(self.world, b.shared_planes, b.as_planes(array))
 
     def reflect(self, name, kinds):
         """Reflect the nodal array ``name`` across the box faces that are planes of

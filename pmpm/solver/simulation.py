@@ -73,10 +73,9 @@ class Simulation:
         #: every body kind, in the order their parts are summed (solver.kinds)
         self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
             + self.parts_of(KIND)
-        exact = config.grid.exact_sums and \
-            [k for k in self.all_kinds if k.on_grid] == [self.points]
-        for level in self.grids:                # the windows' ties: solver.couplings
-            level.exact = exact
+        exact = config.grid.exact_sums
+        for level in self.grids:  # windows: solver.couplings; grid-coupled FE nodes:
+            level.exact = exact   # solver.fem_grid
         self.points.exact = exact
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds,
                                setup.couplings, make_scheme(config.time.scheme),
