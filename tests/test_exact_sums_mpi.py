@@ -195,15 +195,17 @@ def bounce(overrides, world=None, steps=150):
 
 
 @pytest.mark.mpi(min_size=2)
-@pytest.mark.parametrize("plate_end", ["0.036", "0.018"])
-def test_grid_coupled_fe_nodes_are_exact(plate_end):
-    """The FE nodes' mass, momentum, forces and contact fields on the grid are summed
-    as a part of their own (layer-ordered, by node id) and added to the particles'
-    complete sums: the block and the plate on 2 ranks equal 1 rank bitwise, the plate
-    spanning the slab plane (0.036) or ending on it (0.018: nodes lent to the upper
-    rank); summed in array order they part."""
+@pytest.mark.parametrize("plate_end, more", [
+    ("0.036", []), ("0.018", []), ("0.036", ["contact.release=0", "contact.gap=volume"])])
+def test_grid_coupled_fe_nodes_are_exact(plate_end, more):
+    """The FE nodes' mass, momentum, forces and contact fields on the grid (and with
+    the release rule's volume gap their volumes) are summed as a part of their own
+    (layer-ordered, by node id) and added to the particles' complete sums: the block and
+    the plate on 2 ranks equal 1 rank bitwise, the plate spanning the slab plane (0.036)
+    or ending on it (0.018: nodes lent to the upper rank); summed in array order they
+    part."""
     world = comm_world()
-    sets = [f"params.plate_end={plate_end}"]
+    sets = [f"params.plate_end={plate_end}"] + more
     many, got = bounce(sets, world)
     _, expected = bounce(sets)
     for part, one in zip(got, expected):
