@@ -1,9 +1,11 @@
 """pytest-mpi (2 or more ranks): with layer-ordered sums (grid.exact_sums: true)
 N ranks give the 1-rank answer to the bit: the Taylor bar, its particles crossing the
 slab planes, the slabs rebalanced and the particles re-sorted on the way, with the hats
-and with gimp; and the sphere rolling on the FEM plate (surface contact's grid sums, the
-FE nodes the ranks share). The control: summed in array order, the same runs part in
-the last bits.
+and with gimp; the sphere rolling on the FEM plate (surface contact's grid sums, the
+FE nodes the ranks share); refined windows tied to the coarse grid, one across the slab
+plane with grid contact in it, one following a body across the slab plane; and a block
+bouncing off a grid-coupled FEM plate (CFEMP). The control: summed in array order, the
+same runs part in the last bits.
 Run with: mpirun -n 2 python -m pytest --with-mpi tests/test_exact_sums_mpi.py"""
 import os
 
