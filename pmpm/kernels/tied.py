@@ -222,3 +222,16 @@ def mark_slaves(ties, tied):
     """tied[s] = 1 at the slaves of a TieSet."""
     for t in range(ties.count):
         tied[ties.slaves[t]] = 1
+
+
+@njit(cache=True)
+def layer_moments(x, mass, order, layer, sums):
+    """sums[layer[p], :3] += m_p x_p and sums[layer[p], 3] += m_p for the particles p of
+    ``order``, one after the other: per cell layer, in the order's order (a followed
+    window's centroid, the same bits on any rank count: solver.refine)."""
+    for i in range(order.shape[0]):
+        p = order[i]
+        row = layer[p]
+        for d in range(3):
+            sums[row, d] += mass[p] * x[p, d]
+        sums[row, 3] += mass[p]

@@ -49,6 +49,9 @@ class ParticleBodies(BodyKind):
         #: column it sorts (set by each mass scatter)
         self.orders = {}
         self.windows = []           # the refined windows (seen by assign_levels)
+        #: with windows, each particle's cell layer along the slab axis at the last mass
+        #: scatter (a followed body's centroid: layer_moments)
+        self.slab_layer = np.zeros(0, np.int64)
         self.exact = False          # layer-ordered sums (set by the simulation)
 
     # -- records --------------------------------------------------------------------
@@ -84,6 +87,10 @@ class ParticleBodies(BodyKind):
     def scatter_mass_momentum(self, state):
         if state.exact:              # the points' positions of this scatter
             lv = state.level
+            if state.index == 0 and self.windows:     # the layers that tell the ranks
+                a = state.block.slab_axis
+                self.slab_layer = np.floor((self.particles.x[:, a] - lv.origin[a])
+                                           * lv.inv_h).astype(np.int64)
             order = self.canonical_order(lv.origin, lv.inv_h, lv.n_cells,
                                          state.block.slab_axis, state.index)
             self.orders[state.index] = (order, self.particles.id)
@@ -276,6 +283,22 @@ class ParticleBodies(BodyKind):
         parents = np.flatnonzero(factors >= 2)
         if len(parents):
             split(p, parents, factors[parents], id_base, id_stride)
+
+    def layer_moments(self, body, grid, axis):
+        """Per coarse cell layer along the slab ``axis``, (n_layers, 4): sum m x and sum
+        m of one body's particles by their layer at the step's start (that of the last
+        mass scatter), each layer's added in id order. That layer's particles are all on
+        the rank whose slab held it, so a SUM over ranks of these rows gives each row one
+        rank's value, the same as one rank's (solver.refine)."""
+        p = self.particles
+        mine = np.flatnonzero(p.body == body)
+        layer = self.slab_layer if len(self.slab_layer) == p.n else \
+            np.floor((p.x[:, axis] - grid.origin[axis]) / grid.h).astype(np.int64)
+        layer = np.clip(layer[mine], 0, grid.n_cells[axis] - 1)
+        order = np.lexsort((p.id[mine], layer))
+        sums = np.zeros((int(grid.n_cells[axis]), 4))
+        tied.layer_moments(p.x[mine], p.mass[mine], order, layer, sums)
+        return sums
 
     def mass_moments(self, body):
         """(sum m x, sum m) of one body's particles, for its centroid."""

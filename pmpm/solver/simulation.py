@@ -69,7 +69,8 @@ class Simulation:
         transfers = self.parts_of(TRANSFER)
         if id_base is None:               # split particles' ids above every transfer's
             id_base = n_total + sum(t.reserved_ids for t in transfers)
-        self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base)
+        self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base,
+                               slabs.axis if config.grid.exact_sums else None)
         #: every body kind, in the order their parts are summed (solver.kinds)
         self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
             + self.parts_of(KIND)
