@@ -1,9 +1,11 @@
 """pytest-mpi (2 or more ranks): with layer-ordered sums (grid.exact_sums: true)
 N ranks give the 1-rank answer to the bit: the Taylor bar, its particles crossing the
 slab planes, the slabs rebalanced and the particles re-sorted on the way, with the hats
-and with gimp; and the sphere rolling on the FEM plate (surface contact's grid sums, the
-FE nodes the ranks share). The control: summed in array order, the same runs part in
-the last bits.
+and with gimp; the sphere rolling on the FEM plate (surface contact's grid sums, the
+FE nodes the ranks share); refined windows tied to the coarse grid, one across the slab
+plane with grid contact in it, one following a body across the slab plane; and a block
+bouncing off a grid-coupled FEM plate (CFEMP). The control: summed in array order, the
+same runs part in the last bits.
 Run with: mpirun -n 2 python -m pytest --with-mpi tests/test_exact_sums_mpi.py"""
 import os
 
@@ -105,3 +107,117 @@ def test_grid_contact_across_the_slab_plane_is_exact_too():
     off = ["grid.exact_sums=false"]                  # auto is on where bodies touch
     (plain, _), (plain_one, _) = spheres(off, world), spheres(off)
     assert not np.array_equal(plain[2], plain_one[2])
+
+
+HERTZ = os.path.join(os.path.dirname(RUNS), "tests", "cases", "hertz.yaml")
+FOLLOW = os.path.join(os.path.dirname(RUNS), "tests", "cases", "window_follow.yaml")
+
+
+def windowed(case, overrides, steps, world=None):
+    """The simulation, the particles (id, x, v, stress) by id and their first ranks
+    (id, rank) after ``steps`` steps of the run loop's CFL step, sorting and rebalancing
+    every 10 steps; ``sim.first_window_lo``: the windows' first lower corners."""
+    sim = set_up(case, overrides, world)
+    sim.first_window_lo = [w.lo.copy() for w in sim.windows]
+    start = ranks_by_id(sim, world)
+    for step in range(1, steps + 1):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+        if step % 10 == 0:
+            sim.sort_by_cell()
+            sim.rebalance(0.02)
+    p = sim.particles
+    return sim, by_id(world, p.id, p.x, p.v, p.stress), start
+
+
+def ranks_by_id(sim, world):
+    """(id, the rank holding it) of every particle."""
+    p = sim.particles
+    return by_id(world, p.id, np.full(p.n, world.rank if world else 0))
+
+
+#: two spheres meeting inside a window refined twice that the slab plane cuts in two
+#: (gimp, contact method 2, the release rule's volume gap; auto turns the sums on)
+HERTZ_SETS = ["params.R=3", "params.gap=0.1", "decomposition.axis=z"]
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_window_with_contact_across_the_slab_plane_is_exact():
+    world = comm_world()
+    many, got, _ = windowed(HERTZ, HERTZ_SETS, 100, world)
+    _, expected, _ = windowed(HERTZ, HERTZ_SETS, 100)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    a = many.slabs.axis
+    cut = many.grid.origin[a] + many.slabs.bounds[1] * many.grid.h
+    window = many.windows[0]
+    assert window.lo[a] * many.grid.h + many.grid.origin[a] < cut < \
+        window.hi[a] * many.grid.h + many.grid.origin[a]        # the cut runs through it
+    contact, = (c for c in many.stepper.couplings if hasattr(c, "n_slots"))
+    assert world.sum(contact.fields[1].n_slots) > 0       # the spheres touch in the window
+    off = ["grid.exact_sums=false"]
+    _, plain, _ = windowed(HERTZ, HERTZ_SETS + off, 100, world)
+    _, plain_one, _ = windowed(HERTZ, HERTZ_SETS + off, 100)
+    assert not np.array_equal(plain[2], plain_one[2])
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_window_that_follows_a_body_across_the_slab_plane_is_exact():
+    """tests/cases/window_follow.yaml (the hats, contact method 2 on: auto turns the sums
+    on): the cube and its window cross the slab plane, the plate's particles split."""
+    world = comm_world()
+    many, got, start = windowed(FOLLOW, [], 300, world)
+    one, expected, _ = windowed(FOLLOW, [], 300)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    assert np.array_equal(many.refiner.centroids, one.refiner.centroids)   # by layers
+    a = many.slabs.axis
+    assert many.windows[0].lo[a] > many.first_window_lo[0][a]        # the window moved
+    assert len(got[0]) > len(start[0])                     # particles were split
+    end = ranks_by_id(many, world)
+    _, now, then = np.intersect1d(end[0], start[0], return_indices=True)
+    assert (end[1][now] != start[1][then]).any()           # particles changed rank
+    _, plain, _ = windowed(FOLLOW, ["grid.exact_sums=false"], 300, world)
+    _, plain_one, _ = windowed(FOLLOW, ["grid.exact_sums=false"], 300)
+    assert not np.array_equal(plain[2], plain_one[2])
+
+
+BOUNCE = os.path.join(os.path.dirname(RUNS), "tests", "cases", "fem_grid_bounce.yaml")
+
+
+def bounce(overrides, world=None, steps=150):
+    """Particles (id, x, v, eps_p) and owned FE nodes (id, x, v, mass) by id after
+    ``steps`` steps of the block bouncing off the grid-coupled FEM plate (CFEMP, method
+    2; the FEM body turns the sums on), rebalancing every 10 steps."""
+    sim = set_up(BOUNCE, ["params.tilt=0.5"] + overrides, world)
+    for step in range(1, steps + 1):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+        if step % 10 == 0:
+            sim.sort_by_cell()
+            sim.rebalance(0.02)
+    return sim, state(sim, world)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.parametrize("plate_end, more", [
+    ("0.036", []), ("0.018", []), ("0.036", ["contact.release=0", "contact.gap=volume"])])
+def test_grid_coupled_fe_nodes_are_exact(plate_end, more):
+    """The FE nodes' mass, momentum, forces and contact fields on the grid (and with
+    the release rule's volume gap their volumes) are summed as a part of their own
+    (layer-ordered, by node id) and added to the particles' complete sums: the block and
+    the plate on 2 ranks equal 1 rank bitwise, the plate spanning the slab plane (0.036)
+    or ending on it (0.018: nodes lent to the upper rank); summed in array order they
+    part."""
+    world = comm_world()
+    sets = [f"params.plate_end={plate_end}"] + more
+    many, got = bounce(sets, world)
+    _, expected = bounce(sets)
+    for part, one in zip(got, expected):
+        for a, b in zip(part, one):
+            assert np.array_equal(a, b)
+    assert many.grids.coarse.exact and many.slabs.size >= 2
+    assert got[0][2][:, 2].max() > -2.0                      # the block hit the plate
+    off = ["grid.exact_sums=false"]
+    _, plain = bounce(sets + off, world)
+    _, plain_one = bounce(sets + off)
+    assert not all(np.array_equal(a, b) for a, b in zip(plain[0] + plain[1],
+                                                         plain_one[0] + plain_one[1]))

@@ -70,6 +70,50 @@ def fold_layers(prefix, layers):
     return total
 
 
+def continue_shared_planes(world, planes, block, add_lower):
+    """Complete sums whose terms on the shared slab planes are added in rank order: the
+    rank below has added its terms to the planes it shares with the rank above (the
+    one-rank fold's prefix) and sends them up; this rank takes them as its planes shared
+    with the rank below, ``add_lower()`` continues the fold there with its own terms,
+    and it sends the result down, where it replaces the copy of the rank below. Every
+    rank has added its terms to its other planes before the call (the prefix it sends
+    up), so two rounds of one message per neighbour suffice.
+
+    Parameters
+    ----------
+    world : World
+    planes : sequence of (neighbour_rank, (first, stop)), as for ``sum_shared_planes``
+    block : ndarray (n_axis, n1, n2, c), the nodal array with the slab axis first
+    add_lower : callable   adds this rank's terms to its planes shared with the rank below
+    """
+    below = [(n, span) for n, span in planes if n < world.rank]
+    above = [(n, span) for n, span in planes if n > world.rank]
+    _pass_planes(world, block, above, below, 73)        # the prefixes go up
+    add_lower()
+    _pass_planes(world, block, below, above, 74)        # the complete sums come down
+
+
+def _pass_planes(world, block, senders, receivers, tag):
+    """Send ``block``'s planes of the spans ``senders`` to their neighbours and replace
+    those of ``receivers`` by the neighbours' copies."""
+    if not senders and not receivers:
+        return
+    MPI = _mpi()
+    requests, received, sent = [], [], []
+    for neighbour, span in receivers:
+        incoming = np.empty_like(block[span[0]:span[1]])
+        requests.append(world.raw.Irecv(incoming, source=neighbour, tag=tag))
+        received.append((span, incoming))
+    for neighbour, span in senders:
+        outgoing = np.ascontiguousarray(block[span[0]:span[1]])
+        sent.append(outgoing)
+        requests.append(world.raw.Isend(outgoing, dest=neighbour, tag=tag))
+        world.traffic.note("neighbour", outgoing.nbytes)
+    MPI.Request.Waitall(requests)
+    for span, incoming in received:
+        block[span[0]:span[1]] = incoming
+
+
 def or_shared_planes(world, planes, block):
     """Like ``sum_shared_planes`` for integer bit masks: OR in the neighbours' bits."""
     _combine_shared_planes(world, planes, block, np.bitwise_or)

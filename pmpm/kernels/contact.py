@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from .affine import affine_velocity_matrix
-from .layered import NO_LAYER, flush_layer, layer_plane
+from .layered import NO_LAYER, layer_plane, leave_layer, point_at, unpack
 from .boundary import constrain_coded, mirrors
 from .shape import point_axes
 
@@ -86,25 +86,18 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want, affine=None, laye
     M = np.zeros((3, 3))
     nb = cnodal.shape[1]
     flat = cnodal.reshape((cnodal.shape[0], nb * CNODAL))
-    acc, count, current, shift = cnodal, x.shape[0], NO_LAYER, 0
-    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
-    axis = halo = 0                       # unpacked: no record in the loop
-    scratch = np.empty((0, 0))
+    order, count, axis, starts, halo, scratch, kept = unpack(layers, x.shape[0])
+    acc, current, shift = cnodal, NO_LAYER, 0
     if layers is not None:
-        order, axis, starts, halo = layers.order, layers.axis, layers.starts, layers.halo
-        scratch, kept, count = layers.scratch, layers.kept, layers.order.shape[0]
         acc = scratch.reshape((scratch.shape[0], nb, CNODAL))
     for i in range(count):
-        p = i
-        if layers is not None:
-            p = order[i]
+        p = point_at(layers, order, i)
         if level[p] != want:
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
-                if current != NO_LAYER:
-                    flush_layer(flat, scratch, starts, halo, kept, current)
+                leave_layer(layer, current, flat, scratch, starts, halo, kept)
                 current, shift = layer, starts[layer - halo]
         b, m = body[p], mass[p]
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
@@ -135,8 +128,8 @@ def contact_particles_to_grid(pts, geo, slot_of, cnodal, want, affine=None, laye
                     acc[s, b, 7] += mw * axes[2, a]
                     acc[s, b, 8] += mw * axes[5, bb]
                     acc[s, b, 9] += mw * axes[8, cc]
-    if layers is not None and current != NO_LAYER:
-        flush_layer(flat, scratch, starts, halo, kept, current)
+    if layers is not None:
+        leave_layer(NO_LAYER, current, flat, scratch, starts, halo, kept)
 
 
 @njit(cache=True, inline="always")
@@ -460,23 +453,18 @@ def contact_volumes(pts, volume, geo, slot_of, cvol, want, layers=None):
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     axes = np.empty((9, 3))
-    acc, count, current, shift = cvol, x.shape[0], NO_LAYER, 0
-    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
-    axis = halo = 0                       # unpacked: no record in the loop
+    order, count, axis, starts, halo, scratch, kept = unpack(layers, x.shape[0])
+    acc, current, shift = cvol, NO_LAYER, 0
     if layers is not None:
-        order, axis, starts, halo = layers.order, layers.axis, layers.starts, layers.halo
-        acc, kept, count = layers.scratch, layers.kept, layers.order.shape[0]
+        acc = scratch
     for i in range(count):
-        p = i
-        if layers is not None:
-            p = order[i]
+        p = point_at(layers, order, i)
         if level[p] != want:
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
-                if current != NO_LAYER:
-                    flush_layer(cvol, acc, starts, halo, kept, current)
+                leave_layer(layer, current, cvol, acc, starts, halo, kept)
                 current, shift = layer, starts[layer - halo]
         b, vp = body[p], volume[p] * inv_h ** 3
         base, reach = point_axes(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes)
@@ -486,8 +474,8 @@ def contact_volumes(pts, volume, geo, slot_of, cvol, want, layers=None):
                     s = slot_of[base + a * strides[0] + bb * strides[1] + cc * strides[2]]
                     if s >= 0:
                         acc[s - shift, b] += vp * axes[0, a] * axes[3, bb] * axes[6, cc]
-    if layers is not None and current != NO_LAYER:
-        flush_layer(cvol, acc, starts, halo, kept, current)
+    if layers is not None:
+        leave_layer(NO_LAYER, current, cvol, acc, starts, halo, kept)
 
 
 @njit(cache=True, inline="always")

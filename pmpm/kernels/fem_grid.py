@@ -15,22 +15,41 @@ import numpy as np
 from numba import njit
 
 from .boundary import constrain_coded
+from .layered import NO_LAYER, layer_plane, leave_layer, point_at, unpack
 from .shape import MAX_NODES, weights
 
 
 @njit(cache=True)
-def node_forces_to_grid(pts, geo, force, node_force, slot_of, cforce, want):
+def node_forces_to_grid(pts, geo, force, node_force, slot_of, cforce, want, layers=None,
+                        clayers=None):
     """Scatter the FE nodes' forces ``node_force`` (n, 3) to the shared nodal ``force``
     and, at contact nodes (``slot_of`` >= 0), to their body's ``cforce``: the body's
-    trial momentum at a grid node is then sum_K N_IK (m_K v_K + dt f_K) (Eq. 26)."""
+    trial momentum at a grid node is then sum_K N_IK (m_K v_K + dt f_K) (Eq. 26). With
+    ``layers`` (a LayerSums for ``force``) and ``clayers`` (one over the contact slots,
+    rows (n_slots, n_bodies * 3)) the sums are layer-ordered (``pmpm.kernels.layered``)."""
     x, _, _, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
     w = np.empty(MAX_NODES)
-    for p in range(x.shape[0]):
+    order, count, axis, starts, halo, scratch, kept = unpack(layers, x.shape[0])
+    _, _, _, cstarts, _, cscratch, ckept = unpack(clayers, 0)
+    cflat = cforce.reshape((cforce.shape[0], cforce.shape[1] * 3))
+    acc, cacc, current, shift, cshift = force, cforce, NO_LAYER, 0, 0
+    if layers is not None:
+        acc = scratch
+    if clayers is not None:
+        cacc = cscratch.reshape((cscratch.shape[0], cforce.shape[1], 3))
+    for i in range(count):
+        p = point_at(layers, order, i)
         if level[p] != want:
             continue
+        if layers is not None and clayers is not None:
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
+            if layer != current:
+                leave_layer(layer, current, force, acc, starts, halo, kept)
+                leave_layer(layer, current, cflat, cscratch, cstarts, halo, ckept)
+                current, shift, cshift = layer, starts[layer - halo], cstarts[layer - halo]
         b = body[p]
         reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[b], axes,
                         nodes, w)
@@ -39,9 +58,12 @@ def node_forces_to_grid(pts, geo, force, node_force, slot_of, cforce, want):
             s = slot_of[n]
             for d in range(3):
                 f = wk * node_force[p, d]
-                force[n, d] += f
+                acc[n - shift, d] += f
                 if s >= 0:
-                    cforce[s, b, d] += f
+                    cacc[s - cshift, b, d] += f
+    if layers is not None and clayers is not None:
+        leave_layer(NO_LAYER, current, force, acc, starts, halo, kept)
+        leave_layer(NO_LAYER, current, cflat, cscratch, cstarts, halo, ckept)
 
 
 @njit(cache=True)

@@ -22,6 +22,21 @@ each node plane of the block, ``halo`` node layers a shape reaches beyond the ce
 ``scratch`` (rows of the widest window, width) zeros, ``kept`` (2 halo + 1, rows of the
 first 2 halo + 1 planes, width) zeros: the sums of the rank's first ``2 halo + 1``
 layers on the planes it shares with the rank below (no layer when it has none).
+
+A scatter kernel's particle loop, with or without a record::
+
+    order, count, axis, starts, halo, scratch, kept = unpack(layers, n)
+    for i in range(count):
+        p = point_at(layers, order, i)
+        ...
+        if layers is not None:
+            layer = layer_plane(x, p, origin, inv_h, lo, axis)
+            if layer != current:    # here, not in leave_layer: 2.5 times faster
+                leave_layer(layer, current, target, scratch, starts, halo, kept)
+                current, shift = layer, starts[layer - halo]
+        ...             # add into scratch at row - shift
+    if layers is not None:
+        leave_layer(NO_LAYER, current, target, scratch, starts, halo, kept)
 """
 import numpy as np
 from numba import njit
@@ -35,6 +50,36 @@ def layer_plane(x, p, origin, inv_h, lo, axis):
     """The local node plane of the lower face of particle p's cell along the slab axis
     (the same floor the slab classification takes)."""
     return np.int64(np.floor((x[p, axis] - origin[axis]) * inv_h)) - lo[axis]
+
+
+@njit(cache=True)
+def unpack(layers, n):
+    """The record's arrays for a particle loop, (order, count, axis, starts, halo,
+    scratch, kept), or without a record (None) the loop over the ``n`` particles in
+    array order (empty arrays). Unpacked once per kernel call: a record used inside the
+    loop costs a reference count per particle."""
+    if layers is None:
+        return (np.empty(0, np.int64), n, 0, np.empty(0, np.int64), 0, np.empty((0, 0)),
+                np.empty((0, 0, 0)))
+    return (layers.order, layers.order.shape[0], layers.axis, layers.starts, layers.halo,
+            layers.scratch, layers.kept)
+
+
+@njit(cache=True, inline="always")
+def point_at(layers, order, i):
+    """The loop's i-th particle: the i-th of the canonical ``order`` with a record, else
+    the i-th of the arrays."""
+    if layers is None:
+        return i
+    return order[i]
+
+
+@njit(cache=True, inline="always")
+def leave_layer(layer, current, target, scratch, starts, halo, kept):
+    """Flush the window of the ``current`` layer into ``target`` when the loop's next
+    particle is of another ``layer`` (:data:`NO_LAYER` after the last particle)."""
+    if layer != current and current != NO_LAYER:
+        flush_layer(target, scratch, starts, halo, kept, current)
 
 
 @njit(cache=True)

@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
-from .layered import NO_LAYER, flush_layer, layer_plane
+from .layered import NO_LAYER, layer_plane, leave_layer, point_at, unpack
 from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
@@ -42,24 +42,18 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
     shape = len(marker)            # a compile-time constant: see pmpm.kernels.shape
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
     e, M = np.zeros((MAX_NODES, 3)), np.zeros((3, 3))
-    acc, count, current, shift = nodal, x.shape[0], NO_LAYER, 0
-    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
-    axis = halo = 0                       # unpacked: no record in the loop
+    order, count, axis, starts, halo, scratch, kept = unpack(layers, x.shape[0])
+    acc, current, shift = nodal, NO_LAYER, 0
     if layers is not None:
-        acc, order, axis = layers.scratch, layers.order, layers.axis
-        starts, halo, kept = layers.starts, layers.halo, layers.kept
-        count = order.shape[0]
+        acc = scratch
     for i in range(count):
-        p = i
-        if layers is not None:
-            p = order[i]
+        p = point_at(layers, order, i)
         if level[p] != want:
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
-                if current != NO_LAYER:
-                    flush_layer(nodal, acc, starts, halo, kept, current)
+                leave_layer(layer, current, nodal, acc, starts, halo, kept)
                 current, shift = layer, starts[layer - halo]
         m = mass[p]
         slot = 4 if rigid[body[p]] else 0
@@ -91,8 +85,8 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             acc[n, slot + 1] += mw * v[p, 0]
             acc[n, slot + 2] += mw * v[p, 1]
             acc[n, slot + 3] += mw * v[p, 2]
-    if layers is not None and current != NO_LAYER:
-        flush_layer(nodal, acc, starts, halo, kept, current)
+    if layers is not None:
+        leave_layer(NO_LAYER, current, nodal, acc, starts, halo, kept)
 
 
 @njit(cache=True, inline="always")
@@ -300,29 +294,22 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
     Lg = np.empty((3, 3))
     fastest, bad = 0.0, -1
     base, reach = 0, MAX_NODES
-    acc, count, current, shift = force, x.shape[0], NO_LAYER, 0
-    order, starts, kept = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0, 0))
-    axis = halo = 0                       # unpacked: no record in the loop
+    order, count, axis, starts, halo, scratch, kept = unpack(layers, x.shape[0])
+    acc, current, shift = force, NO_LAYER, 0
     if layers is not None:
-        acc, order, axis = layers.scratch, layers.order, layers.axis
-        starts, halo, kept = layers.starts, layers.halo, layers.kept
-        count = order.shape[0]
+        acc = scratch
     for i in range(count):
-        p = i
-        if layers is not None:
-            p = order[i]
+        p = point_at(layers, order, i)
         if level[p] != want:
             continue
         if layers is not None:
             layer = layer_plane(x, p, origin, inv_h, lo, axis)
             if layer != current:
-                if current != NO_LAYER:
-                    flush_layer(force, acc, starts, halo, kept, current)
-                    if contact is not None and clayers is not None:
-                        flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
-                current, shift = layer, starts[layer - halo]
+                leave_layer(layer, current, force, acc, starts, halo, kept)
                 if contact is not None and clayers is not None:
+                    leave_layer(layer, current, cflat, cscratch, cstarts, halo, ckept)
                     cshift = cstarts[layer - halo]
+                current, shift = layer, starts[layer - halo]
         b = body[p]
         if rigid[b]:               # moves with its own velocity, which limits the step too
             if stresses:
@@ -440,10 +427,10 @@ def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact,
                             cacc[s - cshift, b, 0] += f0
                             cacc[s - cshift, b, 1] += f1
                             cacc[s - cshift, b, 2] += f2
-    if layers is not None and current != NO_LAYER:
-        flush_layer(force, acc, starts, halo, kept, current)
+    if layers is not None:
+        leave_layer(NO_LAYER, current, force, acc, starts, halo, kept)
         if contact is not None and clayers is not None:
-            flush_layer(cflat, cscratch, cstarts, halo, ckept, current)
+            leave_layer(NO_LAYER, current, cflat, cscratch, cstarts, halo, ckept)
     return fastest, bad
 
 

@@ -178,6 +178,24 @@ def slaves_to_masters(ties, fine, coarse):
 
 
 @njit(cache=True)
+def slaves_to_masters_in_rows(ties, fine, coarse, slave_rows, master_rows):
+    """:func:`slaves_to_masters` for the ties whose slave row is in ``slave_rows`` and
+    the masters whose row is in ``master_rows`` ((first, stop) each), in the same order:
+    each master's terms by slave row. The tied interface's exact sums split one rank's
+    adds into those of the ranks that own the slaves (``pmpm.solver.couplings``)."""
+    slaves, masters, weights, count = ties
+    for t in range(count):
+        s = slaves[t]
+        if s < slave_rows[0] or s >= slave_rows[1]:
+            continue
+        for k in range(8):
+            m = masters[t, k]
+            if m >= master_rows[0] and m < master_rows[1]:
+                for c in range(fine.shape[1]):
+                    coarse[m, c] += weights[t, k] * fine[s, c]
+
+
+@njit(cache=True)
 def masters_to_slaves(ties, coarse, fine):
     """fine[s] = sum_m phi_m coarse[m]: slave velocity (Eq. 22) or end-of-step velocity
     and acceleration (Eqs. 23-24) interpolated from the master nodes."""
@@ -204,3 +222,16 @@ def mark_slaves(ties, tied):
     """tied[s] = 1 at the slaves of a TieSet."""
     for t in range(ties.count):
         tied[ties.slaves[t]] = 1
+
+
+@njit(cache=True)
+def layer_moments(x, mass, order, layer, sums):
+    """sums[layer[p], :3] += m_p x_p and sums[layer[p], 3] += m_p for the particles p of
+    ``order``, one after the other: per cell layer, in the order's order (a followed
+    window's centroid, the same bits on any rank count: solver.refine)."""
+    for i in range(order.shape[0]):
+        p = order[i]
+        row = layer[p]
+        for d in range(3):
+            sums[row, d] += mass[p] * x[p, d]
+        sums[row, 3] += mass[p]

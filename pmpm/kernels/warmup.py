@@ -195,6 +195,8 @@ def warm_up_ties(pts, geo, block, nodal):
     ties = ties._replace(count=count)
     tied.find_inner_ties(block, block, block.lo, block.lo, block.lo, block.lo, 1, ties)
     tied.slaves_to_masters(ties, nodal, nodal)
+    rows = np.array([0, N], np.int64)
+    tied.slaves_to_masters_in_rows(ties, nodal, nodal, rows, rows)
     tied.masters_to_slaves(ties, nodal, nodal)
     tied.clear_slave_slots(ties, mask)
     tied.mark_slaves(ties, np.zeros(N, np.int8))

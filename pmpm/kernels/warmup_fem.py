@@ -18,6 +18,8 @@ from ..fem import nodes as fn
 from ..fem.stability import mesh_rate
 from ..materials import layout
 from . import fem_grid, forces, node_contact, surface_contact
+from .records import LayerSums
+from .shape import HALO
 
 #: the unit cube as one hexahedron (VTK order)
 CUBE = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
@@ -127,17 +129,31 @@ def warm_up_node_contact():
                                     f2.copy(), f1.copy())
 
 
-def warm_up_fem_grid(pts, geo, block, force, slots, view):
+def warm_up_fem_grid(pts, geo, block, force, slots, view, exact=False):
     """The grid coupling's kernels (CFEMP, pmpm.solver.fem_grid) on the warm-up's point,
-    grid and (empty) contact slots and view."""
+    grid and (empty) contact slots and view; with ``exact`` also the layer-ordered force
+    scatter (``grid.exact_sums``)."""
     fem_grid.node_forces_to_grid(pts, geo, force, np.zeros((1, 3)), view.slot_of,
                                  view.cforce, 0)
+    if exact:
+        halo, order = HALO[len(geo.shape)], np.zeros(1, np.int64)
+        fem_grid.node_forces_to_grid(pts, geo, force, np.zeros((1, 3)), view.slot_of,
+                                     view.cforce, 0, _layers(order, 3, halo, 9),
+                                     _layers(order, view.cforce.shape[1] * 3, halo, 0))
     n_slots, nb = slots.cnodal.shape[:2]
     dacc = np.zeros((n_slots, nb, 3))
     rigid = np.zeros(nb, np.bool_)
     fem_grid.contact_accelerations(slots, rigid, 1e-12, block, dacc)
     fem_grid.contact_velocity_changes(pts, geo, view.slot_of, dacc, 1e-3, rigid,
                                       np.zeros((1, 3)), 0)
+
+
+def _layers(order, width, halo, per_plane):
+    """A LayerSums record over the warm-up block's 3 node planes of ``per_plane`` rows
+    (9 nodes, or no contact slots), as pmpm.kernels.warmup.warm_up_layers."""
+    return LayerSums(order, 0, np.arange(4, dtype=np.int64) * per_plane, halo,
+                     np.zeros((max(3 * per_plane, 1), width)),
+                     np.zeros((1, per_plane, width)))
 
 
 def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False):
@@ -184,7 +200,7 @@ def warm_up_couplings(pts, geo, block, pairs, mat, bodies, grids, contact_state,
     if kinds.get("node_contact"):
         warm_up_node_contact()
     if kinds.get("fem_grid") and slots is not None:
-        warm_up_fem_grid(pts, geo, block, force, slots, view)
+        warm_up_fem_grid(pts, geo, block, force, slots, view, kinds.get("exact", False))
     if kinds.get("forces"):
         warm_up_forces(block, pairs, gvel, gnew, slots, kinds.get("free_rigid", False))
 

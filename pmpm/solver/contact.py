@@ -12,6 +12,7 @@ from ..kernels import tied
 from ..kernels.records import ContactSlots, ContactView, PairRules
 from ..materials import layout
 from .couplings import Coupling, kept_copy
+from .levels import PART
 from .workspace import Workspace
 
 #: how the contact slots' arrays reflect across planes of symmetry (kernels.boundary)
@@ -243,7 +244,15 @@ class ContactFields:
 
     def sum_on_shared_planes(self, block, array, state=None, name=None):
         """Sum the slot array on the shared planes; in layer order (to the bit of one
-        rank) where ``state`` holds the kept layers of ``name``'s layered scatter."""
+        rank) where ``state`` holds the kept layers of ``name``'s layered scatter, and
+        a second kind's part of it on its own, then added (``LevelState.part``)."""
+        self.sum_slots(block, array, state, name)
+        part = state.parts.pop(name, None) if state is not None else None
+        if part is not None:
+            self.sum_slots(block, part, state, name + PART)
+            array += part
+
+    def sum_slots(self, block, array, state, name):
         views = {span: array[a:b] for span, (a, b) in self.plane_slots.items()}
         if state is not None and state.exact and name in state.kept:
             sum_shared_planes_in_layer_order(self.world, block.shared_planes, views,

@@ -16,7 +16,7 @@ the simulation builds them from the registry (``pmpm.solver.registry``).
 """
 import numpy as np
 
-from ..comm.exchange import or_shared_planes
+from ..comm.exchange import continue_shared_planes, or_shared_planes
 from ..kernels import tied
 from ..kernels.records import TieSet
 
@@ -64,6 +64,15 @@ class TiedInterface(Coupling):
     every rank's share through the sum, and no value is counted twice. Slave velocities
     and accelerations are interpolated *after* the sums, from complete master values that
     every rank holding the slave has alike.
+
+    With layer-ordered sums (``grid.exact_sums``, ``pmpm.kernels.layered``) the slaves are
+    added *after* the shared-plane sums instead, from complete slave values to complete
+    master values, each master's terms in slave row order (the slab axis slowest): the
+    rank that owns a slave's node plane adds its term, the rank below first, and the
+    masters on a slab plane are passed on from the rank below to the rank above and
+    back (``continue_shared_planes``), so every rank count adds the same terms in the
+    same order as one rank. An inner slave's coarse value is then complete too, and
+    every rank holding its window node adds it alike.
     """
 
     def __init__(self, world):
@@ -81,11 +90,39 @@ class TiedInterface(Coupling):
         for w in grids.windows:
             w.ties = self.find_ties(w, grids.coarse, occupied)
             w.slave_ties = [w.ties]
-            tied.slaves_to_masters(w.ties, w.nodal, grids.coarse.nodal)
             w.inner = self.find_inner_ties(w, grids.coarse)
             grids.coarse.slave_ties.append(w.inner)
+            if grids.coarse.exact:          # after the shared-plane sums (before_reflect)
+                sort_by_slave(w.ties)
+                continue
+            tied.slaves_to_masters(w.ties, w.nodal, grids.coarse.nodal)
             tied.slaves_to_masters(w.inner, grids.coarse.nodal, w.nodal)
         mark_tied_slaves(grids)
+
+    def before_reflect(self, grids, what):
+        """With layer-ordered sums: the slaves' ``what`` ("nodal" or "force") to their
+        masters, now that the shared-plane sums are complete."""
+        if grids.coarse.exact:
+            self.add_slaves_in_rank_order(grids, what)
+
+    def add_slaves_in_rank_order(self, grids, name):
+        """Every window's tied slaves of the nodal array ``name`` added to their masters
+        as one rank adds them (see the class), then the inner slaves to their window
+        nodes."""
+        coarse = grids.coarse
+        target, b = getattr(coarse, name), coarse.block
+        lower = lower_shared_rows(b, self.world.rank)
+        rest = np.array([lower[1], b.n_nodes], np.int64)
+
+        def add(master_rows):
+            for w in grids.windows:
+                tied.slaves_to_masters_in_rows(w.ties, getattr(w, name), target,
+                                               np.array(w.owned_rows, np.int64), master_rows)
+        add(rest)
+        continue_shared_planes(self.world, b.shared_planes, b.as_planes(target),
+                               lambda: add(np.array(lower, np.int64)))
+        for w in grids.windows:
+            tied.slaves_to_masters(w.inner, target, getattr(w, name))
 
     def occupied_nodes(self, coarse, kinds):
         b = coarse.block
@@ -139,6 +176,8 @@ class TiedInterface(Coupling):
             tied.masters_to_slaves(w.inner, w.gvel, grids.coarse.gvel)
 
     def after_forces(self, grids):
+        if grids.coarse.exact:              # after the shared-plane sums (before_reflect)
+            return
         for w in grids.windows:
             tied.slaves_to_masters(w.ties, w.force, grids.coarse.force)
             tied.slaves_to_masters(w.inner, grids.coarse.force, w.force)
@@ -147,6 +186,25 @@ class TiedInterface(Coupling):
         for w in grids.windows:
             tied.masters_to_slaves(w.ties, grids.coarse.gnew, w.gnew)
             tied.masters_to_slaves(w.inner, w.gnew, grids.coarse.gnew)
+
+
+def sort_by_slave(ties):
+    """Order a TieSet's rows by slave row in place (the slab axis slowest): the order
+    in which the ranks that own the slaves' planes add them, lowest rank first."""
+    n = ties.count
+    order = np.argsort(ties.slaves[:n], kind="stable")
+    for column in (ties.slaves, ties.masters, ties.weights):
+        column[:n] = column[:n][order]
+
+
+def lower_shared_rows(block, rank):
+    """The rows [first, stop) of ``block``'s planes shared with the rank below ((0, 0)
+    where there are none)."""
+    per_plane = int(block.strides[block.slab_axis])
+    for neighbour, span in block.shared_planes:
+        if neighbour < rank:
+            return span[0] * per_plane, span[1] * per_plane
+    return 0, 0
 
 
 def mark_tied_slaves(grids):

@@ -62,6 +62,7 @@ from ..kernels import mpm, tied
 from ..kernels.records import PointState
 from .contact import GRID_COUPLING, SURFACE_COUPLING, GridContact
 from .errors import SetupError
+from .levels import PART
 from .kinds import BodyKind
 from .workspace import Workspace
 
@@ -92,6 +93,8 @@ class FemGridNodes(BodyKind):
         self.fault = None
         self.pts = self.empty_points()
         self.mine = self.lent = np.zeros(0, np.int64)
+        #: the points' node ids and, with layer-ordered sums, their canonical order
+        self.ids = self.order = np.zeros(0, np.int64)
         self.lent_to, self.guest_counts, self.lending = np.zeros(0, np.int64), [], False
 
     @staticmethod
@@ -144,15 +147,18 @@ class FemGridNodes(BodyKind):
         packages = []
         for r in range(self.world.size):
             idx = self.lent[self.lent_to == r]
-            packages.append((clipped[idx], e.v[idx], e.mass[idx], e.node_body[idx]))
+            packages.append((clipped[idx], e.v[idx], e.mass[idx], e.node_body[idx],
+                             e.node_id[idx]))
         received = exchange_arrays(self.world, packages)
         self.guest_counts = [len(part[2]) for part in received]
         return received
 
     def point_state(self, clipped, guests):
         e, mine = self.elements, self.mine
-        parts = [(clipped[mine], e.v[mine], e.mass[mine], e.node_body[mine])] + list(guests)
-        x, v, m, b = (np.concatenate([p[i] for p in parts]) for i in range(4))
+        parts = [(clipped[mine], e.v[mine], e.mass[mine], e.node_body[mine],
+                  e.node_id[mine])] + list(guests)
+        x, v, m, b, ids = (np.concatenate([p[i] for p in parts]) for i in range(5))
+        self.ids = ids.astype(np.int64)
         return PointState(np.ascontiguousarray(x), np.ascontiguousarray(v), m,
                           b.astype(np.int32), np.zeros(len(m), np.int32))
 
@@ -167,9 +173,31 @@ class FemGridNodes(BodyKind):
     def scatter_mass_momentum(self, state):
         if state.index == 0:
             self.gather()
+        if self.layered(state):
+            self.order = self.canonical_order(state)
+            nodal = state.part("nodal", state.nodal.shape)
+            mpm.particles_to_grid(self.pts, self.rigid, state.geometry, nodal, 0, None,
+                                  state.layer_sums("nodal" + PART, nodal.shape[1],
+                                                   self.order))
+            return
         mpm.particles_to_grid(self.pts, self.rigid, state.geometry, state.nodal, state.index,
                               None, None)   # no affine matrices, no layers: the warm-up's
                                             # signature
+
+    @staticmethod
+    def layered(state):
+        """Whether this kind's sums on ``state`` are layer-ordered parts (the nodes map
+        to the coarse grid only)."""
+        return state.exact and state.index == 0
+
+    def canonical_order(self, state):
+        """The points by (coarse cell with the slab axis slowest, node id), the order of
+        the particles' layered scatters (``pmpm.kernels.layered``): a rank's nodes of a
+        cell layer are the one-rank order's, lent ones included."""
+        lv, pts = state.level, self.pts
+        cells = mpm.slab_cell_keys(pts.x, lv.origin, lv.inv_h, lv.n_cells,
+                                   state.block.slab_axis)
+        return np.lexsort((self.ids, cells)).astype(np.int64)
 
     def mark_occupied(self, coarse, occupied):
         g = coarse.geometry
@@ -180,6 +208,13 @@ class FemGridNodes(BodyKind):
         kc.body_masks(self.pts, state.geometry, mask, state.index)
 
     def scatter_contact(self, state, slot_of, cnodal):
+        if self.layered(state):
+            part = state.part("cnodal", cnodal.shape)
+            kc.contact_particles_to_grid(
+                self.pts, state.geometry, slot_of, part, 0, None,
+                state.layer_sums("cnodal" + PART, part.shape[1] * part.shape[2], self.order,
+                                 state.slot_starts))
+            return
         kc.contact_particles_to_grid(self.pts, state.geometry, slot_of, cnodal, state.index,
                                      None, None)
 
@@ -190,6 +225,12 @@ class FemGridNodes(BodyKind):
         """The nodes' lumped volumes (mass over the body's initial density) for the volume
         gap: the node sampling of the mesh's material, as hats sample particles."""
         rho0 = self.elements.table.params[self.pts.body, layout.RHO0]
+        if self.layered(state):
+            part = state.part("cvol", cvol.shape)
+            kc.contact_volumes(self.pts, self.pts.mass / rho0, state.geometry, slot_of, part,
+                               0, state.layer_sums("cvol" + PART, part.shape[1], self.order,
+                                                   state.slot_starts))
+            return
         kc.contact_volumes(self.pts, self.pts.mass / rho0, state.geometry, slot_of, cvol,
                            state.index, None)
 
@@ -205,6 +246,15 @@ class FemGridNodes(BodyKind):
         force *= e.mass[:, None] / dt
         guests = self.swap_rows(force) if self.lending else np.zeros((0, 3))
         node_force = np.concatenate([force[self.mine], guests])
+        if self.layered(state):
+            total, cforce = state.part("force", state.force.shape), \
+                state.part("cforce", contact.cforce.shape)
+            width = cforce.shape[1] * cforce.shape[2]
+            kf.node_forces_to_grid(
+                self.pts, state.geometry, total, node_force, contact.slot_of, cforce, 0,
+                state.layer_sums("force" + PART, 3, self.order),
+                state.layer_sums("cforce" + PART, width, self.order, state.slot_starts))
+            return 0.0
         kf.node_forces_to_grid(self.pts, state.geometry, state.force, node_force,
                                contact.slot_of, contact.cforce, state.index)
         return 0.0

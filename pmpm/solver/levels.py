@@ -11,6 +11,8 @@ from ..kernels.records import GridGeometry, LayerSums, NodeBlock
 from .workspace import Workspace
 
 NO_PAIRS = np.zeros((0, 3), np.int64)
+#: the suffix of the names of a second kind's layer-ordered sums (grid-coupled FE nodes)
+PART = "/part"
 
 
 def as_rows(array, width):
@@ -45,10 +47,19 @@ class LevelState:
         self.kept = {}
         #: the first contact slot of each node plane (set by grid contact each step)
         self.slot_starts = None
+        #: the first row of each node plane of the block (layer-ordered sums)
+        self.plane_starts = np.zeros(1, np.int64)
+        #: the rows of the node planes this rank's slab owns (set with the block)
+        self.owned_rows = (0, 0)
+        #: a second kind's layer-ordered sums of this step by array name (grid-coupled
+        #: FE nodes), added to the array once both are summed over the shared planes
+        self.parts = {}
 
     def build_block(self, slabs, rank, cell_range):
         b = self.block = self.level.block(slabs, rank, *cell_range)
         lv = self.level
+        self.plane_starts = plane_starts(b, self.plane_starts)
+        self.owned_rows = owned_rows(b, slabs, rank, lv.ratio)
         self.geometry = GridGeometry(lv.origin, lv.inv_h, b.lo, b.strides,
                                      MARKERS[self.shape], self.half_width)
         if len(self.faces) < b.n_nodes:
@@ -70,11 +81,20 @@ class LevelState:
             return None
         b = self.block
         if starts is None:
-            starts = np.arange(b.shape[b.slab_axis] + 1, dtype=np.int64) * \
-                b.strides[b.slab_axis]
+            starts = self.plane_starts
         layers = layer_record(self.work, name, order, b, starts, self.level.halo, width)
         self.kept[name] = layers.kept
         return layers
+
+    def part(self, name, shape):
+        """A zeroed array ``shape`` (rows first) for a second kind's layer-ordered sums
+        into the array ``name`` (its LayerSums named ``name + PART``): summed over the
+        shared planes on its own, then added to the array (:meth:`Hierarchy.sum_shared`,
+        ``ContactFields.sum_on_shared_planes``). One rank then adds the two kinds'
+        complete sums as every rank count does."""
+        flat = self.work.zeros(name + PART, shape[0], int(np.prod(shape[1:])))
+        self.parts[name] = flat.reshape(shape)
+        return self.parts[name]
 
     def add_rows(self, name, array, node, x, key, values):
         """``array[node] += values`` row by row (``array`` (n_nodes, c) zeros, ``values``
@@ -97,8 +117,7 @@ class LevelState:
         np.add.at(sums, np.cumsum(first) - 1, values)      # each layer's rows in order
         node, layer = node[first], layer[first]
         np.add.at(array, node, sums)                        # the layers in order
-        starts = np.arange(b.shape[a] + 1, dtype=np.int64) * b.strides[a]
-        kept = layer_record(self.work, name, np.zeros(0, np.int64), b, starts, halo,
+        kept = layer_record(self.work, name, np.zeros(0, np.int64), b, self.plane_starts, halo,
                             array.shape[1]).kept
         k = layer - halo
         on = (k >= 0) & (k < kept.shape[0]) & (node < kept.shape[1])
@@ -124,6 +143,27 @@ class LevelState:
         if len(self.mirror):
             mirror_rows(as_rows(array, len(kinds)), kinds, self.mirror, self.nodes.boundary,
                         slot_of, self.tied)
+
+
+def plane_starts(block, kept):
+    """The first row of each node plane of ``block`` along its slab axis and the row
+    after the last, (n_planes + 1,): ``kept`` if the planes are the same as its."""
+    n_planes, stride = int(block.shape[block.slab_axis]), int(block.strides[block.slab_axis])
+    if len(kept) == n_planes + 1 and (n_planes == 0 or kept[1] == stride):
+        return kept
+    return np.arange(n_planes + 1, dtype=np.int64) * stride
+
+
+def owned_rows(block, slabs, rank, ratio):
+    """The rows [first, stop) of ``block`` on the node planes of the slab ``rank`` owns
+    (from the cut below it up to the cut above, that one excluded; unbounded at the ends
+    of the box): the tied interface adds the ties of these slaves."""
+    a = block.slab_axis
+    first, last = (ratio * bound for bound in slabs.owned(rank))
+    lo, n_planes, stride = int(block.lo[a]), int(block.shape[a]), int(block.strides[a])
+    start = 0 if rank == 0 else min(max(first - lo, 0), n_planes)
+    stop = n_planes if rank == slabs.size - 1 else min(max(last - lo, 0), n_planes)
+    return start * stride, max(stop, start) * stride
 
 
 def layer_record(work, name, order, block, starts, halo, width):
@@ -175,15 +215,23 @@ class Hierarchy:
             setattr(s, name, s.work.empty(name, s.block.n_nodes, width))
 
     def sum_shared(self, name):
-        """Sum the nodal array ``name`` on the slab planes shared with neighbours."""
+        """Sum the nodal array ``name`` on the slab planes shared with neighbours (and a
+        second kind's part of it, then added: :meth:`LevelState.part`)."""
         for s in self.states:
-            b = s.block
             array = getattr(s, name)
-            if s.exact and name in s.kept:          # a layer-ordered scatter's array
-                sum_shared_planes_in_layer_order(self.world, b.shared_planes, b.as_planes(array),
-                                                 s.kept_planes(name, array.shape[1]))
-            else:
-                sum_shared_planes(self.world, b.shared_planes, b.as_planes(array))
+            self.sum_array(s, name, array)
+            part = s.parts.pop(name, None)
+            if part is not None:
+                self.sum_array(s, name + PART, part)
+                array += part
+
+    def sum_array(self, s, name, array):
+        b = s.block
+        if s.exact and name in s.kept:          # a layer-ordered scatter's array
+            sum_shared_planes_in_layer_order(self.world, b.shared_planes, b.as_planes(array),
+                                             s.kept_planes(name, array.shape[1]))
+        else:
+            sum_shared_planes(self.world, b.shared_planes, b.as_planes(array))
 
     def reflect(self, name, kinds):
         """Reflect the nodal array ``name`` across the box faces that are planes of

@@ -45,9 +45,13 @@ class ParticleBodies(BodyKind):
         self.level_of = np.zeros(0, np.int32)
         self.work = Workspace()
         self.fault = None
-        #: the canonical order of the layer-ordered scatters (set by each mass scatter)
-        self.order = np.zeros(0, np.int64)
-        self.order_of = None        # the id column self.order sorts
+        #: per grid level, the canonical order of the layer-ordered scatters and the id
+        #: column it sorts (set by each mass scatter)
+        self.orders = {}
+        self.windows = []           # the refined windows (seen by assign_levels)
+        #: with windows, each particle's cell layer along the slab axis at the last mass
+        #: scatter (a followed body's centroid: layer_moments)
+        self.slab_layer = np.zeros(0, np.int64)
         self.exact = False          # layer-ordered sums (set by the simulation)
 
     # -- records --------------------------------------------------------------------
@@ -71,6 +75,7 @@ class ParticleBodies(BodyKind):
     def assign_levels(self, grid, windows):
         """The grid each particle maps to: the window holding it, else the coarse grid."""
         p = self.particles
+        self.windows = windows
         if len(self.level_of) != p.n:
             self.level_of = np.zeros(p.n, np.int32)
         if windows:
@@ -80,27 +85,52 @@ class ParticleBodies(BodyKind):
 
     # -- phases ------------------------------------------------------------------------
     def scatter_mass_momentum(self, state):
-        if state.exact and state.index == 0:       # the points' positions of this scatter
-            self.order = self.canonical_order(state.level.origin, state.level.inv_h,
-                                              state.level.n_cells, state.block.slab_axis)
+        if state.exact:              # the points' positions of this scatter
+            lv = state.level
+            if state.index == 0 and self.windows:     # the layers that tell the ranks
+                a = state.block.slab_axis
+                self.slab_layer = np.floor((self.particles.x[:, a] - lv.origin[a])
+                                           * lv.inv_h).astype(np.int64)
+            order = self.canonical_order(lv.origin, lv.inv_h, lv.n_cells,
+                                         state.block.slab_axis, state.index)
+            self.orders[state.index] = (order, self.particles.id)
         mpm.particles_to_grid(self.points(), self.bodies.rigid, state.geometry, state.nodal,
                               state.index, self.affine(),
-                              state.layer_sums("nodal", mpm.NODAL_COMPONENTS, self.order))
+                              state.layer_sums("nodal", mpm.NODAL_COMPONENTS,
+                                               self.order_on(state)))
 
-    def canonical_order(self, origin, inv_h, n_cells, axis):
-        """The particles by (cell with the slab ``axis`` slowest, id): a rank's particles
-        are then a contiguous run of the one-rank order, whatever migration appended
+    @property
+    def order(self):
+        """The canonical order on the coarse grid (its last mass scatter's)."""
+        return self.orders.get(0, (NO_ORDER,))[0]
+
+    def order_on(self, state):
+        """The canonical order of the level ``state``'s layer-ordered scatters (that of
+        its last mass scatter)."""
+        return self.orders.get(state.index, (NO_ORDER,))[0]
+
+    def canonical_order(self, origin, inv_h, n_cells, axis, index=0):
+        """The particles of the grid level ``index`` (all of them without windows) by
+        (cell of that level (cell size 1 / ``inv_h``) with the slab ``axis`` slowest,
+        id): a rank's particles of a cell layer are then the one-rank order's, whatever
+        migration appended, and a layer's particles are one run of it
         (``pmpm.kernels.layered``)."""
         p = self.particles
         keys = self.work.empty("keys", p.n, 1, np.int64)[:, 0]
         if not mpm.canonical_keys(p.x, p.id, origin, inv_h, n_cells, axis, keys):
-            return np.lexsort((p.id, mpm.slab_cell_keys(p.x, origin, inv_h, n_cells, axis)))
-        order = self.order.copy() if self.order_of is p.id and len(self.order) == p.n \
-            else np.arange(p.n, dtype=np.int64)     # the last step's, if still the same
-        self.order_of = p.id                         # columns (migration replaces them)
-        if mpm.sort_nearly_sorted(keys, order, 8 * p.n):
+            order = np.lexsort((p.id, mpm.slab_cell_keys(p.x, origin, inv_h, n_cells, axis)))
+            return order if not self.windows else order[self.level_of[order] == index]
+        last, of = self.orders.get(index, (NO_ORDER, None))
+        if self.windows:
+            fresh = np.flatnonzero(self.level_of == index)
+            same = len(last) == len(fresh) and bool(np.all(self.level_of[last] == index))
+        else:
+            fresh, same = np.arange(p.n, dtype=np.int64), len(last) == p.n
+        # the last step's order, if still over the same columns (migration replaces them)
+        order = last.copy() if of is p.id and same else fresh
+        if mpm.sort_nearly_sorted(keys, order, 8 * len(order)):
             return order
-        return np.argsort(keys, kind="stable")
+        return order[np.argsort(keys[order], kind="stable")]
 
     def mark_occupied(self, coarse, occupied):
         """The coarse nodes of cells holding coarse particles (the tied-interface search)."""
@@ -112,7 +142,8 @@ class ParticleBodies(BodyKind):
         kc.body_masks(self.points(), state.geometry, mask, state.index)
 
     def scatter_contact(self, state, slot_of, cnodal):
-        layers = state.layer_sums("cnodal", cnodal.shape[1] * cnodal.shape[2], self.order,
+        layers = state.layer_sums("cnodal", cnodal.shape[1] * cnodal.shape[2],
+                                  self.order_on(state),
                                   state.slot_starts)
         kc.contact_particles_to_grid(self.points(), state.geometry, slot_of, cnodal,
                                      state.index, self.affine(), layers)
@@ -125,7 +156,7 @@ class ParticleBodies(BodyKind):
         volume = self.work.empty("volume", p.n, 1)[:, 0]
         np.divide(p.mass, p.rho, out=volume)
         kc.contact_volumes(self.points(), volume, state.geometry, slot_of, cvol, state.index,
-                           state.layer_sums("cvol", cvol.shape[1], self.order,
+                           state.layer_sums("cvol", cvol.shape[1], self.order_on(state),
                                             state.slot_starts))
 
     def stress_and_forces(self, state, dt, contact):
@@ -148,8 +179,8 @@ class ParticleBodies(BodyKind):
         fastest, bad = mpm.stress_and_forces(
             self.points(), self.particles.material, self.materials, self.loads(), dt, lv.h,
             state.geometry, state.gvel, state.force, contact, state.index, stresses, forces,
-            state.layer_sums("force", 3, self.order) if forces else None,
-            state.layer_sums("cforce", contact.cforce.shape[1] * 3, self.order,
+            state.layer_sums("force", 3, self.order_on(state)) if forces else None,
+            state.layer_sums("cforce", contact.cforce.shape[1] * 3, self.order_on(state),
                              state.slot_starts) if forces and contact is not None else None)
         self.note_fault(bad, FAILED_UPDATE)
         return fastest * lv.ratio
@@ -223,7 +254,7 @@ class ParticleBodies(BodyKind):
         id), which then stays close to the array order (cheap to sort each step)."""
         p = self.particles
         if self.exact:
-            p.take(self.canonical_order(grid.origin, 1.0 / grid.h, grid.n_cells, axis))
+            p.take(self.level_by_level_order(grid, axis))
             return
         keys = mpm.cell_keys(p.x, grid.origin, 1.0 / grid.h, grid.n_cells)
         p.take(np.argsort(keys, kind="stable"))
@@ -237,6 +268,21 @@ class ParticleBodies(BodyKind):
         self.particles.append(columns)
         return len(columns["mass"])
 
+    def level_by_level_order(self, grid, axis):
+        """The coarse grid's particles, then each window's, each in its level's
+        canonical order: the order each level's layered scatters visit them in, so that
+        they walk memory in order (a window's cell layers interleave within a coarse
+        layer: visited in the coarse order, the window's kernels ran 3 times slower)."""
+        if not self.windows:
+            return self.canonical_order(grid.origin, 1.0 / grid.h, grid.n_cells, axis)
+        self.assign_levels(grid, self.windows)          # the levels of the moved particles
+        ratios = [1] + [w.ratio for w in self.windows]
+        order = np.concatenate([self.canonical_order(grid.origin, r / grid.h,
+                                                     grid.n_cells * r, axis, k)
+                                for k, r in enumerate(ratios)])
+        self.level_of = self.level_of[order]
+        return order
+
     # -- refinement (seed 000 Sec. 3.4) -------------------------------------------------
     def split_entering(self, ratios, id_base, id_stride):
         """Split every particle whose spacing is coarser than the window it is in: a
@@ -247,6 +293,22 @@ class ParticleBodies(BodyKind):
         if len(parents):
             split(p, parents, factors[parents], id_base, id_stride)
 
+    def layer_moments(self, body, grid, axis):
+        """Per coarse cell layer along the slab ``axis``, (n_layers, 4): sum m x and sum
+        m of one body's particles by their layer at the step's start (that of the last
+        mass scatter), each layer's added in id order. That layer's particles are all on
+        the rank whose slab held it, so a SUM over ranks of these rows gives each row one
+        rank's value, the same as one rank's (solver.refine)."""
+        p = self.particles
+        mine = np.flatnonzero(p.body == body)
+        layer = self.slab_layer if len(self.slab_layer) == p.n else \
+            np.floor((p.x[:, axis] - grid.origin[axis]) / grid.h).astype(np.int64)
+        layer = np.clip(layer[mine], 0, grid.n_cells[axis] - 1)
+        order = np.lexsort((p.id[mine], layer))
+        sums = np.zeros((int(grid.n_cells[axis]), 4))
+        tied.layer_moments(p.x[mine], p.mass[mine], order, layer, sums)
+        return sums
+
     def mass_moments(self, body):
         """(sum m x, sum m) of one body's particles, for its centroid."""
         p = self.particles
@@ -254,4 +316,5 @@ class ParticleBodies(BodyKind):
         return p.mass[mine] @ p.x[mine], p.mass[mine].sum()
 
 
+NO_ORDER = np.zeros(0, np.int64)
 FAILED_UPDATE = "constitutive update failed (NaN, non-convergence or non-positive density)"

@@ -15,10 +15,14 @@ class Refiner:
     kinds : list of body kinds   (their points' levels and centroids; particle kinds split)
     id_base : int   above every particle id at the start of the run; split particles get
         ids from their parent's (``pmpm.particles.split``)
+    layer_axis : int or None   with layer-ordered sums (``grid.exact_sums``) the slab
+        axis: a followed body's centroid is then summed by cell layers along it, in
+        layer order, the same bits on any rank count
     """
 
-    def __init__(self, world, grid, windows, kinds, id_base):
+    def __init__(self, world, grid, windows, kinds, id_base, layer_axis=None):
         self.world, self.grid, self.windows, self.kinds = world, grid, windows, kinds
+        self.layer_axis = layer_axis
         self.id_base = int(id_base)
         ratios = [w.ratio for w in windows]
         self.id_stride = max(ratios + [1]) ** 3
@@ -31,6 +35,8 @@ class Refiner:
         reduction; none when no window follows a body)."""
         if not self.followers:
             return np.zeros((0, 3))
+        if self.layer_axis is not None:
+            return self.centroids_by_layer()
         local = np.zeros((len(self.followers), 4))
         for i, window in enumerate(self.followers):
             for kind in self.kinds:
@@ -38,6 +44,18 @@ class Refiner:
                 local[i, :3] += moment
                 local[i, 3] += mass
         total = self.world.sum(local)
+        mass = np.where(total[:, 3] > 0, total[:, 3], 1.0)
+        return total[:, :3] / mass[:, None]
+
+    def centroids_by_layer(self):
+        """The followed centroids from each body's per-layer moments (one SUM
+        reduction: each layer's row comes from one rank), folded in layer order."""
+        rows = np.stack([sum(kind.layer_moments(w.follow, self.grid, self.layer_axis)
+                             for kind in self.kinds) for w in self.followers])
+        rows = self.world.sum(rows)
+        total = np.zeros((len(self.followers), 4))
+        for layer in range(rows.shape[1]):
+            total += rows[:, layer]
         mass = np.where(total[:, 3] > 0, total[:, 3], 1.0)
         return total[:, :3] / mass[:, None]
 

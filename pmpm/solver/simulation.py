@@ -69,16 +69,18 @@ class Simulation:
         transfers = self.parts_of(TRANSFER)
         if id_base is None:               # split particles' ids above every transfer's
             id_base = n_total + sum(t.reserved_ids for t in transfers)
-        self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base)
+        self.refiner = Refiner(world, grid, self.windows, self.kinds, id_base,
+                               slabs.axis if config.grid.exact_sums else None)
         #: every body kind, in the order their parts are summed (solver.kinds)
         self.all_kinds = [self.points] + [kinds[e.name] for e in KINDS if e.name in kinds] \
             + self.parts_of(KIND)
         for kind in self.all_kinds:       # the couplings follow the kinds' meshes
             for coupling in setup.couplings:
                 kind.when_elements_change(coupling.after_elements_changed)
-        self.grids.coarse.exact = config.grid.exact_sums and not self.windows and \
-            [k for k in self.all_kinds if k.on_grid] == [self.points]
-        self.points.exact = self.grids.coarse.exact
+        exact = config.grid.exact_sums
+        for level in self.grids:  # windows: solver.couplings; grid-coupled FE nodes:
+            level.exact = exact   # solver.fem_grid
+        self.points.exact = exact
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds,
                                setup.couplings, make_scheme(config.time.scheme),
                                self.refiner, m_tiny, transfers)
