@@ -75,7 +75,8 @@ from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_orde
 from .couplings import Coupling, kept_copy
 from .errors import SetupError
 from .fem_grid import grid_coupled_bodies
-from .surface_contact import MAX_BUCKETS, free_face_mask, joined_segments, shapes
+from .surface_contact import (MAX_BUCKETS, free_face_mask, gathered_segments,
+                              joined_segments, segment_boxes, shapes)
 
 #: the share of a depth left after the impulses that a pair closes in a step, by moving
 #: the positions (not the velocities: no energy, no momentum)
@@ -189,9 +190,9 @@ class NodeContact(Coupling):
         return np.flatnonzero((marked[:, 0] > 0) & fem.owned)
 
     def own_segments(self):
-        fem, nodes = self.elements, self.face_nodes
-        return {"gid": self.face_gid, "x": fem.x[nodes], "x0": self.start_x[nodes],
-                "v": fem.v[nodes],
+        fem = self.elements
+        x, x0, v = gathered_segments(fem.x, self.start_x, fem.v, self.face_nodes)
+        return {"gid": self.face_gid, "x": x, "x0": x0, "v": v,
                 "inv_m": self.face_inv_m, "body": self.face_body, "key": self.face_key,
                 "holders": self.face_holders, "depth": self.face_depth}
 
@@ -224,8 +225,9 @@ class NodeContact(Coupling):
 
     def slave_moves(self):
         """How far each slave node moved in the step so far."""
-        fem = self.elements
-        return np.linalg.norm(fem.x[self.slaves] - self.start_x[self.slaves], axis=1)
+        moves = np.empty(len(self.slaves))
+        ksc.point_moves(self.elements.x, self.start_x, self.slaves, moves)
+        return moves
 
     def after_update_points(self, dt):
         segs = self.with_halo(self.own_segments())
@@ -266,12 +268,10 @@ class NodeContact(Coupling):
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
         x, x0 = np.ascontiguousarray(segs["x"]), np.ascontiguousarray(segs["x0"])
         seg_move, node_move = segment_moves(x, x0), self.slave_moves()
-        seg_lo, seg_hi = np.empty((len(x), 3)), np.empty((len(x), 3))
-        knc.segment_boxes(x, segs["depth"] + self.off_tol + seg_move + node_move.max(),
-                          seg_lo, seg_hi)
-        lo = seg_lo.min(axis=0)
+        seg_lo, seg_hi, lo, hi = segment_boxes(
+            x, segs["depth"] + self.off_tol + seg_move + node_move.max())
         edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
-        extent = seg_hi.max(axis=0) - lo
+        extent = hi - lo
         size = max(edge, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
         dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
         start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
