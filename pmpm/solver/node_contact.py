@@ -22,7 +22,8 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
 * Search, every step, at the trial positions (the nodes have moved, x^(k+1) =
   x^k + dt v^(k+1/2)): the buckets of particle-to-surface contact, each face entered in
   the buckets of its box grown by its depth (half its element's size), a small
-  tolerance and how far nodes moved in the step; per slave node the nearest face it has
+  tolerance and how far nodes moved in the step, body by body (a slave body's nodes
+  search buckets of only the faces they meet); per slave node the nearest face it has
   crossed, g < 0, its foot inside the face, approaching it or not, no deeper than the
   face's depth plus what node and face moved in the step (a node that crossed faster
   than the depth is deep is still found), and within the face's depth of it at the

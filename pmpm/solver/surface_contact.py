@@ -14,7 +14,10 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
   inflated by ``reach`` (twice the largest particle half-spacing) plus the farthest any
   particle of the rank and any face node moved in the step, overlaps; a particle looks
   only at the segments of its own bucket. Nothing is missed: a segment the particle can
-  touch or have got behind (below) has the particle inside its inflated box.
+  touch or have got behind (below) has the particle inside its inflated box. The buckets
+  cover only the particles' box, and a segment whose node box lies beyond the pair's
+  window, or beyond the best segment found so far, is passed over before its Newton
+  projection (the closest point lies in that box): the same pairs, to the bit.
 * Local search (Eqs. 36-41): the closest point of the bilinear face by Newton, the
   outward normal n and the gap g = n.(x_p - r_c) at the trial positions.
 * Contact rule: the particle is a sphere of half its spacing r_p = vol0^(1/3) / 2; it is
