@@ -17,7 +17,8 @@ approach, whichever is less), so that bodies meet where their surfaces meet.
 import numpy as np
 from numba import njit
 
-from .surface_contact import TIE, bucket_of, closest_point, face_shapes, nearer
+from .surface_contact import (TIE, beyond_reach, bucket_of, closest_point,
+                             face_shapes, nearer)
 
 
 @njit(cache=True)
@@ -69,10 +70,16 @@ def find_node_pairs(nx, nx0, nmove, nbody, seg_x, seg_x0, seg_move, seg_body, se
         b = bucket_of(nx[n], lo, inv_size, dims)
         if b < 0:
             continue
-        best, best_key = np.inf, -1
+        best, best_key, best_reach = np.inf, -1, np.inf
         for k in range(start[b], start[b + 1]):
             s = items[k]
             if not touches[nbody[n], seg_body[s]]:
+                continue
+            # a face that takes part (a pair, or a nearer face not crossed) has its
+            # closest point within sqrt((depth + moves)^2 + tol^2) of the node, and one
+            # that beats the best within sqrt(best + tie)
+            if beyond_reach(seg_x[s], nx[n],
+                            min(seg_depth[s] + nmove[n] + seg_move[s] + tol, best_reach)):
                 continue
             g, off = closest_point(seg_x[s], nx[n], out)
             if off > tol or g >= seg_depth[s] or -tol <= g <= tol \
@@ -86,6 +93,7 @@ def find_node_pairs(nx, nx0, nmove, nbody, seg_x, seg_x0, seg_move, seg_body, se
                 if g0 <= -seg_depth[s]:
                     continue
             best, best_key = dist, seg_key[s]
+            best_reach = np.sqrt(best + TIE * tol * tol)
             pair_seg[n] = s if g < 0.0 else -1      # a nearer face not crossed: none
             for c in range(5):
                 pair_geo[n, c] = out[c]

@@ -37,16 +37,26 @@ def face_shapes(xi, eta, phi):
         phi[j] = 0.25 * (1.0 + XI[j] * xi) * (1.0 + ETA[j] * eta)
 
 
-@njit(cache=True)
-def face_point(xf, xi, eta, r, r_xi, r_eta):
-    """r(xi, eta) (Eq. 36) and its two tangents."""
-    for d in range(3):
-        r[d] = r_xi[d] = r_eta[d] = 0.0
-        for j in range(4):
-            phi = 0.25 * (1.0 + XI[j] * xi) * (1.0 + ETA[j] * eta)
-            r[d] += phi * xf[j, d]
-            r_xi[d] += 0.25 * XI[j] * (1.0 + ETA[j] * eta) * xf[j, d]
-            r_eta[d] += 0.25 * ETA[j] * (1.0 + XI[j] * xi) * xf[j, d]
+@njit(cache=True, inline="always")
+def face_frame(xf, xi, eta):
+    """r(xi, eta) (Eq. 36) and its two tangents r_xi, r_eta, as a 9-tuple of scalars
+    (no arrays to allocate in the Newton loop of ``closest_point``)."""
+    r0 = r1 = r2 = a0 = a1 = a2 = b0 = b1 = b2 = 0.0
+    for j in range(4):
+        phi = 0.25 * (1.0 + XI[j] * xi) * (1.0 + ETA[j] * eta)
+        along_xi = 0.25 * XI[j] * (1.0 + ETA[j] * eta)
+        along_eta = 0.25 * ETA[j] * (1.0 + XI[j] * xi)
+        x0, x1, x2 = xf[j, 0], xf[j, 1], xf[j, 2]
+        r0 += phi * x0
+        r1 += phi * x1
+        r2 += phi * x2
+        a0 += along_xi * x0
+        a1 += along_xi * x1
+        a2 += along_xi * x2
+        b0 += along_eta * x0
+        b1 += along_eta * x1
+        b2 += along_eta * x2
+    return r0, r1, r2, a0, a1, a2, b0, b1, b2
 
 
 @njit(cache=True)
@@ -55,22 +65,23 @@ def closest_point(xf, t, out):
     r_xi.(t - r) = r_eta.(t - r) = 0 by Newton from the centre, the iterate kept within
     [-1, 1]^2, so that a point beyond an edge lands on the edge). Fills ``out`` with xi,
     eta, the outward unit normal at that point (Eq. 41) and returns the gap
-    g = n.(t - r_c) (Eq. 40) and the in-plane distance of t from r_c."""
-    r, r_xi, r_eta = np.empty(3), np.empty(3), np.empty(3)
-    r_xe = np.empty(3)
-    for d in range(3):
-        r_xe[d] = 0.25 * (xf[0, d] - xf[1, d] + xf[2, d] - xf[3, d])
+    g = n.(t - r_c) (Eq. 40) and the in-plane distance of t from r_c. In scalars (the
+    search calls it thousands of times a step); each sum in a fixed order."""
+    t0, t1, t2 = t[0], t[1], t[2]
+    c0 = 0.25 * (xf[0, 0] - xf[1, 0] + xf[2, 0] - xf[3, 0])
+    c1 = 0.25 * (xf[0, 1] - xf[1, 1] + xf[2, 1] - xf[3, 1])
+    c2 = 0.25 * (xf[0, 2] - xf[1, 2] + xf[2, 2] - xf[3, 2])
     xi = eta = 0.0
     for _ in range(NEWTON_STEPS):
-        face_point(xf, xi, eta, r, r_xi, r_eta)
-        f0 = f1 = a00 = a01 = a11 = 0.0
-        for d in range(3):
-            e = t[d] - r[d]
-            f0 += r_xi[d] * e
-            f1 += r_eta[d] * e
-            a00 += r_xi[d] * r_xi[d]
-            a11 += r_eta[d] * r_eta[d]
-            a01 += r_xi[d] * r_eta[d] - r_xe[d] * e
+        r0, r1, r2, a0, a1, a2, b0, b1, b2 = face_frame(xf, xi, eta)
+        e0, e1, e2 = t0 - r0, t1 - r1, t2 - r2
+        f0 = 0.0 + a0 * e0 + a1 * e1 + a2 * e2
+        f1 = 0.0 + b0 * e0 + b1 * e1 + b2 * e2
+        a00 = 0.0 + a0 * a0 + a1 * a1 + a2 * a2
+        a11 = 0.0 + b0 * b0 + b1 * b1 + b2 * b2
+        a01 = 0.0 + (a0 * b0 - c0 * e0)
+        a01 += a1 * b1 - c1 * e1
+        a01 += a2 * b2 - c2 * e2
         det = a00 * a11 - a01 * a01
         if det <= 0.0:                 # far from a strongly warped face: plain gradient
             det, a01 = a00 * a11, 0.0
@@ -82,13 +93,13 @@ def closest_point(xf, t, out):
         xi, eta = new_xi, new_eta
         if moved < 1e-13:
             break
-    face_point(xf, xi, eta, r, r_xi, r_eta)
-    n0 = r_xi[1] * r_eta[2] - r_xi[2] * r_eta[1]
-    n1 = r_xi[2] * r_eta[0] - r_xi[0] * r_eta[2]
-    n2 = r_xi[0] * r_eta[1] - r_xi[1] * r_eta[0]
+    r0, r1, r2, a0, a1, a2, b0, b1, b2 = face_frame(xf, xi, eta)
+    n0 = a1 * b2 - a2 * b1
+    n1 = a2 * b0 - a0 * b2
+    n2 = a0 * b1 - a1 * b0
     norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     n0, n1, n2 = n0 / norm, n1 / norm, n2 / norm
-    e0, e1, e2 = t[0] - r[0], t[1] - r[1], t[2] - r[2]
+    e0, e1, e2 = t0 - r0, t1 - r1, t2 - r2
     g = n0 * e0 + n1 * e1 + n2 * e2
     s0, s1, s2 = e0 - g * n0, e1 - g * n1, e2 - g * n2
     out[0], out[1], out[2], out[3], out[4] = xi, eta, n0, n1, n2
@@ -156,6 +167,67 @@ def nearer(dist, key, best, best_key, tie):
     return dist < best - tie or (dist <= best + tie and key < best_key)
 
 
+#: the relative slack of the box cull (``beyond_reach``): round-off of the closest point
+#: and of the box is far below it, so a culled segment could never have passed the tests
+CULL_SLACK = 1e-9
+
+
+@njit(cache=True, inline="always")
+def beyond_reach(xf, t, reach):
+    """Whether point ``t`` lies farther than ``reach`` from the box of face ``xf``'s four
+    nodes. The face's closest point to ``t`` is a convex combination of the nodes
+    (bilinear weights at (xi, eta) in [-1, 1]^2), so it lies in that box: a face for
+    which this is true is farther than ``reach`` from ``t``, and the Newton iteration of
+    ``closest_point`` need not run for it. The slack (CULL_SLACK of ``reach`` and of
+    |t|) keeps the test on the safe side of round-off."""
+    far, size = 0.0, 0.0
+    for d in range(3):
+        lo = hi = xf[0, d]
+        for j in range(1, 4):
+            lo = min(lo, xf[j, d])
+            hi = max(hi, xf[j, d])
+        excess = max(0.0, lo - t[d], t[d] - hi)
+        far += excess * excess
+        size = max(size, abs(t[d]))
+    slack = reach + CULL_SLACK * (reach + size)
+    return far > slack * slack
+
+
+@njit(cache=True)
+def gather_segments(x, x0, v, nodes, seg_x, seg_x0, seg_v):
+    """``seg_x[s, j] = x[nodes[s, j]]`` and likewise x0 and v: the segments' node
+    states in one pass (numpy's fancy indexing does it in three, more slowly)."""
+    for s in range(len(nodes)):
+        for j in range(4):
+            i = nodes[s, j]
+            for d in range(3):
+                seg_x[s, j, d] = x[i, d]
+                seg_x0[s, j, d] = x0[i, d]
+                seg_v[s, j, d] = v[i, d]
+
+
+@njit(cache=True)
+def box_bounds(seg_lo, seg_hi, lo, hi):
+    """``lo``, ``hi`` (3): the smallest of ``seg_lo`` and the largest of ``seg_hi`` per
+    axis (numpy's reductions along the long axis of an (n, 3) array are slow)."""
+    for d in range(3):
+        lo[d], hi[d] = np.inf, -np.inf
+    for s in range(len(seg_lo)):
+        for d in range(3):
+            lo[d] = min(lo[d], seg_lo[s, d])
+            hi[d] = max(hi[d], seg_hi[s, d])
+
+
+@njit(cache=True)
+def point_moves(x, x0, idx, moves):
+    """``moves[k]``: how far point ``idx[k]`` moved from its ``x0`` (the sum of squares
+    in numpy's order for a row norm, so the same bits)."""
+    for k in range(len(idx)):
+        i = idx[k]
+        d0, d1, d2 = x[i, 0] - x0[i, 0], x[i, 1] - x0[i, 1], x[i, 2] - x0[i, 2]
+        moves[k] = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+
+
 @njit(cache=True)
 def segment_moves(seg_x, seg_x0, moves):
     """``moves[s]``: the farthest any node of segment s moved in the step (from its
@@ -201,7 +273,7 @@ def find_pairs(px, px0, pbody, vol0, moved, seg_x, seg_x0, seg_move, seg_body, s
         b = bucket_of(px[p], lo, inv_size, dims)
         if b < 0:
             continue
-        best, best_key = np.inf, -1
+        best, best_key, best_reach = np.inf, -1, np.inf
         radius = depth = -1.0
         for k in range(start[b], start[b + 1]):
             s = items[k]
@@ -210,6 +282,12 @@ def find_pairs(px, px0, pbody, vol0, moved, seg_x, seg_x0, seg_move, seg_body, s
             if radius < 0.0:
                 radius = 0.5 * np.cbrt(vol0[p])
                 depth = radius + moved[p]
+            # a pair's centre lies within sqrt((depth + seg_move)^2 + radius^2) of its
+            # closest point, and one that beats the best within sqrt(best + tie): no
+            # farther than either from the face's box
+            if beyond_reach(seg_x[s], px[p],
+                            min(radius + depth + seg_move[s], best_reach)):
+                continue
             g, off = closest_point(seg_x[s], px[p], out)
             if g >= radius or g <= -(depth + seg_move[s]) or off > radius:
                 continue
@@ -220,6 +298,7 @@ def find_pairs(px, px0, pbody, vol0, moved, seg_x, seg_x0, seg_move, seg_body, s
             if g0 <= -radius:
                 continue
             best, best_key = dist, seg_key[s]
+            best_reach = np.sqrt(best + TIE * radius * radius)
             pair_seg[p] = s
             for c in range(5):
                 pair_geo[p, c] = out[c]

@@ -70,6 +70,12 @@ def _segments():
     surface_contact.segment_moves(seg_x, seg_x.copy(), seg_move)
     lo, dims = np.zeros(3), np.ones(3, np.int64)
     start, items = surface_contact.bucket_segments(seg_lo, seg_lo.copy(), lo, 1.0, dims)
+    surface_contact.box_bounds(seg_lo, seg_lo.copy(), lo.copy(), lo.copy())
+    f2, i0 = np.zeros((0, 3)), np.zeros(0, np.int64)
+    surface_contact.gather_segments(f2, f2.copy(), f2.copy(), np.zeros((0, 4), np.int64),
+                                    seg_x.copy(), seg_x.copy(), seg_x.copy())
+    surface_contact.point_moves(f2, f2.copy(), i0, np.zeros(0))
+    node_contact.segment_boxes(seg_x, np.zeros(0), seg_lo.copy(), seg_lo.copy())
     return seg_x, seg_move, lo, dims, start, items
 
 

@@ -22,7 +22,8 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
 * Search, every step, at the trial positions (the nodes have moved, x^(k+1) =
   x^k + dt v^(k+1/2)): the buckets of particle-to-surface contact, each face entered in
   the buckets of its box grown by its depth (half its element's size), a small
-  tolerance and how far nodes moved in the step; per slave node the nearest face it has
+  tolerance and how far nodes moved in the step, body by body (a slave body's nodes
+  search buckets of only the faces they meet); per slave node the nearest face it has
   crossed, g < 0, its foot inside the face, approaching it or not, no deeper than the
   face's depth plus what node and face moved in the step (a node that crossed faster
   than the depth is deep is still found), and within the face's depth of it at the
@@ -75,7 +76,8 @@ from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_orde
 from .couplings import Coupling, kept_copy
 from .errors import SetupError
 from .fem_grid import grid_coupled_bodies
-from .surface_contact import MAX_BUCKETS, free_face_mask, joined_segments, shapes
+from .surface_contact import (MAX_BUCKETS, free_face_mask, gathered_segments,
+                              joined_segments, segment_boxes, shapes)
 
 #: the share of a depth left after the impulses that a pair closes in a step, by moving
 #: the positions (not the velocities: no energy, no momentum)
@@ -87,6 +89,8 @@ DEPTH_SHARE = 0.5
 #: of the side face too)
 TOLERANCE = 1e-10
 SEGMENT_FIELDS = ("gid", "x", "x0", "v", "inv_m", "body", "key", "holders", "depth")
+#: the width of the search's buckets in mean element edges of the master faces
+BUCKET_EDGES = 2.0
 
 
 def node_contact_pairs(rules, fem_bodies, rigid):
@@ -178,6 +182,13 @@ class NodeContact(Coupling):
         self.face_depth = DEPTH_SHARE * size
         self.slaves = self.slave_nodes(faces, free & self.slave_bodies[face_body])
         self.node_body = fem.node_body.astype(np.int64)
+        # the search goes body by body: each slave body's nodes look only at the faces
+        # it meets, in their order (a face of another body fails the kernel's first
+        # test, so the pairs are the same), and a node far from all of them falls
+        # outside their buckets at once
+        slave_body = self.node_body[self.slaves]
+        self.slave_groups = [(b, np.flatnonzero(slave_body == b))
+                             for b in np.unique(slave_body)]
 
     def slave_nodes(self, faces, surface):
         """Local indices of the nodes this rank counts that lie on a free face of a
@@ -189,9 +200,9 @@ class NodeContact(Coupling):
         return np.flatnonzero((marked[:, 0] > 0) & fem.owned)
 
     def own_segments(self):
-        fem, nodes = self.elements, self.face_nodes
-        return {"gid": self.face_gid, "x": fem.x[nodes], "x0": self.start_x[nodes],
-                "v": fem.v[nodes],
+        fem = self.elements
+        x, x0, v = gathered_segments(fem.x, self.start_x, fem.v, self.face_nodes)
+        return {"gid": self.face_gid, "x": x, "x0": x0, "v": v,
                 "inv_m": self.face_inv_m, "body": self.face_body, "key": self.face_key,
                 "holders": self.face_holders, "depth": self.face_depth}
 
@@ -224,8 +235,9 @@ class NodeContact(Coupling):
 
     def slave_moves(self):
         """How far each slave node moved in the step so far."""
-        fem = self.elements
-        return np.linalg.norm(fem.x[self.slaves] - self.start_x[self.slaves], axis=1)
+        moves = np.empty(len(self.slaves))
+        ksc.point_moves(self.elements.x, self.start_x, self.slaves, moves)
+        return moves
 
     def after_update_points(self, dt):
         segs = self.with_halo(self.own_segments())
@@ -266,22 +278,27 @@ class NodeContact(Coupling):
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
         x, x0 = np.ascontiguousarray(segs["x"]), np.ascontiguousarray(segs["x0"])
         seg_move, node_move = segment_moves(x, x0), self.slave_moves()
-        seg_lo, seg_hi = np.empty((len(x), 3)), np.empty((len(x), 3))
-        knc.segment_boxes(x, segs["depth"] + self.off_tol + seg_move + node_move.max(),
-                          seg_lo, seg_hi)
-        lo = seg_lo.min(axis=0)
-        edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
-        extent = seg_hi.max(axis=0) - lo
-        size = max(edge, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
-        dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
-        start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
-        nx = np.ascontiguousarray(fem.x[self.slaves])
-        pair_seg, geo = np.empty(len(nx), np.int64), np.empty((len(nx), 6))
-        knc.find_node_pairs(nx, np.ascontiguousarray(self.start_x[self.slaves]), node_move,
-                            self.node_body[self.slaves], x, x0, seg_move, segs["body"],
-                            segs["key"], np.ascontiguousarray(segs["depth"]),
-                            self.touches, self.off_tol, lo, 1.0 / size, dims, start,
-                            items, pair_seg, geo)
+        seg_lo, seg_hi, _, _ = segment_boxes(
+            x, segs["depth"] + self.off_tol + seg_move + node_move.max())
+        # two edges: a slave body's nodes meet the faces of other bodies only, few of
+        # them by any one bucket, so wide buckets cost little in the search and save
+        # entries (a face in about 8 rather than 27 buckets)
+        size = BUCKET_EDGES * np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
+        n = len(self.slaves)
+        pair_seg, geo = np.full(n, -1, np.int64), np.empty((n, 6))
+        for body, group in self.slave_groups:
+            faces = np.flatnonzero(self.touches[body][segs["body"]])
+            if not len(faces):
+                continue
+            nodes = self.slaves[group]
+            found_seg, found_geo = np.empty(len(group), np.int64), np.empty((len(group), 6))
+            lo, inv_size, dims, start, items = face_buckets(seg_lo, seg_hi, faces, size)
+            knc.find_node_pairs(fem.x[nodes], self.start_x[nodes], node_move[group],
+                                self.node_body[nodes], x, x0, seg_move, segs["body"],
+                                segs["key"], np.ascontiguousarray(segs["depth"]),
+                                self.touches, self.off_tol, lo, inv_size, dims, start,
+                                items, found_seg, found_geo)
+            pair_seg[group], geo[group] = found_seg, found_geo
         found = np.flatnonzero(pair_seg >= 0)
         return self.slaves[found], pair_seg[found], geo[found]
 
@@ -328,6 +345,21 @@ class NodeContact(Coupling):
         fem.v += total[:, 0] / fem.mass[:, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before) + total[:, 1] / fem.mass[:, None]
+
+
+def face_buckets(seg_lo, seg_hi, faces, size):
+    """The buckets of the faces ``faces`` (indices, ascending) with the grown boxes
+    [seg_lo, seg_hi]: (lo, 1 / size, dims, start, items), items the face indices, each
+    bucket's in ascending order; a bucket is ``size`` wide, or wider where MAX_BUCKETS
+    would not cover the faces."""
+    lo, hi = np.empty(3), np.empty(3)
+    face_lo, face_hi = seg_lo[faces], seg_hi[faces]
+    ksc.box_bounds(face_lo, face_hi, lo, hi)
+    extent = hi - lo
+    size = max(size, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
+    dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
+    start, items = ksc.bucket_segments(face_lo, face_hi, lo, 1.0 / size, dims)
+    return lo, 1.0 / size, dims, start, faces[items]
 
 
 def segment_moves(seg_x, seg_x0):

@@ -14,7 +14,10 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
   inflated by ``reach`` (twice the largest particle half-spacing) plus the farthest any
   particle of the rank and any face node moved in the step, overlaps; a particle looks
   only at the segments of its own bucket. Nothing is missed: a segment the particle can
-  touch or have got behind (below) has the particle inside its inflated box.
+  touch or have got behind (below) has the particle inside its inflated box. The buckets
+  cover only the particles' box, and a segment whose node box lies beyond the pair's
+  window, or beyond the best segment found so far, is passed over before its Newton
+  projection (the closest point lies in that box): the same pairs, to the bit.
 * Local search (Eqs. 36-41): the closest point of the bilinear face by Newton, the
   outward normal n and the gap g = n.(x_p - r_c) at the trial positions.
 * Contact rule: the particle is a sphere of half its spacing r_p = vol0^(1/3) / 2; it is
@@ -96,6 +99,7 @@ from ..comm.shared_nodes import swap_with
 from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
 from ..kernels.boundary import FREE, column_kinds
+from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
 from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
@@ -186,9 +190,9 @@ class SurfaceContact(Coupling):
     def own_segments(self):
         """This rank's segments with their nodes' current state (what does not change
         between refreshes is kept from :meth:`refresh_faces`)."""
-        fem, nodes = self.elements, self.face_nodes
-        return {"gid": self.face_gid, "x": fem.x[nodes], "x0": self.start_node_x[nodes],
-                "v": fem.v[nodes],
+        fem = self.elements
+        x, x0, v = gathered_segments(fem.x, self.start_node_x, fem.v, self.face_nodes)
+        return {"gid": self.face_gid, "x": x, "x0": x0, "v": v,
                 "inv_m": self.face_inv_m, "body": self.face_body,
                 "key": self.face_key, "holders": self.face_holders}
 
@@ -441,10 +445,12 @@ class SurfaceContact(Coupling):
         seg_move = np.empty(len(x))
         ksc.segment_moves(x, x0, seg_move)
         grow = self.reach + moved.max() + seg_move.max()
-        seg_lo, seg_hi = x.min(axis=1) - grow, x.max(axis=1) + grow
-        lo = seg_lo.min(axis=0)
+        seg_lo, seg_hi, lo, hi = segment_boxes(x, np.full(len(x), grow))
+        lo, hi = within_points(lo, hi, p.x, grow)
+        if np.any(hi < lo):       # no particle lies in any face's grown box
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
         edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1).mean()
-        extent = seg_hi.max(axis=0) - lo
+        extent = hi - lo
         size = max(edge, 2.0 * self.reach, float(np.prod(extent) / MAX_BUCKETS) ** (1 / 3))
         dims = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
         start, items = ksc.bucket_segments(seg_lo, seg_hi, lo, 1.0 / size, dims)
@@ -495,6 +501,37 @@ class SurfaceContact(Coupling):
         fem.v += total / fem.mass[:, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before)
+
+
+def gathered_segments(x, x0, v, nodes):
+    """(ns, 4, 3) each: the positions, start-of-step positions and velocities of the
+    nodes of the segments ``nodes`` (ns, 4)."""
+    shape = (len(nodes), 4, 3)
+    seg_x, seg_x0, seg_v = np.empty(shape), np.empty(shape), np.empty(shape)
+    ksc.gather_segments(x, x0, v, nodes, seg_x, seg_x0, seg_v)
+    return seg_x, seg_x0, seg_v
+
+
+def segment_boxes(seg_x, pad):
+    """Each segment's box grown by its ``pad`` (seg_lo, seg_hi: (ns, 3)) and the box of
+    them all (lo, hi: (3,))."""
+    seg_lo, seg_hi = np.empty((len(seg_x), 3)), np.empty((len(seg_x), 3))
+    knc.segment_boxes(seg_x, pad, seg_lo, seg_hi)
+    lo, hi = np.empty(3), np.empty(3)
+    ksc.box_bounds(seg_lo, seg_hi, lo, hi)
+    return seg_lo, seg_hi, lo, hi
+
+
+def within_points(lo, hi, x, pad):
+    """The box [lo, hi] cut to the box of the points ``x`` grown by ``pad``: the buckets
+    of the search need cover only where particles are (a particle outside every face's
+    grown box has no pair, and one inside finds every face whose grown box holds it in
+    its bucket, wherever the buckets start), so that a few particles by a large mesh do
+    not bucket all of its faces. The pad keeps the outermost particles off the box's
+    far side, where round-off could put them one bucket past the last."""
+    x_lo, x_hi = np.empty(3), np.empty(3)
+    ksc.box_bounds(x, x, x_lo, x_hi)
+    return np.maximum(lo, x_lo - pad), np.minimum(hi, x_hi + pad)
 
 
 def on_held_box_faces(x, faces, grid):
