@@ -105,10 +105,12 @@ def warm_up_surface_grid(pts, geo, block, nodal, gnew, affine):
     surface_contact.gather_from_nodes(x, i0, body, geo, dv, f2.copy())
     surface_contact.surface_nodes(x, i0, body, f2.copy(), geo, i0.copy(), i0.copy(),
                                   f1.copy())
-    surface_contact.node_pair_impulses(i0, i0.copy(), f1, f1.copy(), field[:, 0],
-                                       gnew[:, :3], i0.copy(), np.zeros((0, 6)),
-                                       np.zeros((0, 4, 3)), np.zeros((0, 4)), f1.copy(),
-                                       f2.copy())
+    # a rank whose block is empty (or one node) passes a contiguous column view
+    for node_v in (gnew[:, :3], np.zeros((0, 3))):
+        surface_contact.node_pair_impulses(i0, i0.copy(), f1, f1.copy(), field[:, 0],
+                                           node_v, i0.copy(), np.zeros((0, 6)),
+                                           np.zeros((0, 4, 3)), np.zeros((0, 4)),
+                                           f1.copy(), f2.copy())
     surface_contact.nodal_velocity_changes(nodal, dv.copy(), gnew, block.faces,
                                            block.friction, dv)
     rigid = np.zeros(1, np.bool_)
