@@ -101,3 +101,24 @@ def test_two_slabs_folded_on_their_shared_planes_give_the_one_block_sums(shape):
     cut = 3 + halo                      # the slab plane's index in the whole block
     assert np.array_equal(planes[0], whole[:cut + halo + 1])
     assert np.array_equal(planes[1], whole[cut - halo:])
+
+
+WINDOW_BALL = ["params.cell=2", "params.plate_radius=16", "params.cells_below=6",
+               "params.ratio=2", "params.window=8", "params.window_below=4"]
+
+
+def test_exact_sums_stay_off_for_windows_with_bspline_shapes():
+    """Refined windows with the bspline shapes are not exact yet (2 ranks part from 1 by
+    2e-3 mm on this case): `auto` keeps them off there, `true` is refused by its key."""
+    import os
+
+    from pmpm.case.errors import CaseError
+    from pmpm.case.loader import load_config
+    case = os.path.join(os.path.dirname(__file__), "..", "runs", "steel_ball_plate.yaml")
+    on = load_config(case, WINDOW_BALL + ["grid.shape_functions=gimp"], check_geometry=False)
+    off = load_config(case, WINDOW_BALL + ["grid.shape_functions=bspline"],
+                      check_geometry=False)
+    assert on.grid.exact_sums and not off.grid.exact_sums
+    with pytest.raises(CaseError, match="grid.exact_sums"):
+        load_config(case, WINDOW_BALL + ["grid.shape_functions=bspline",
+                                         "grid.exact_sums=true"], check_geometry=False)
