@@ -77,18 +77,25 @@ def instrument():
     Simulation.advance = timed_advance
 
 
-def main():
+def run_instrumented(instrument_tree, times):
+    """``python SCRIPT TREE OUT.json CASE [pmpm args]``: put TREE first on the path, call
+    ``instrument_tree()``, run pmpm, write every rank's ``times`` to OUT.json on rank 0
+    and exit with pmpm's status (scripts/phase_times.py uses it too)."""
     tree, out, argv = sys.argv[1], sys.argv[2], sys.argv[3:]
     sys.path.insert(0, tree)
-    instrument()
+    instrument_tree()
     from mpi4py import MPI
     from pmpm.__main__ import main as pmpm_main
     status = pmpm_main(argv)
-    every = MPI.COMM_WORLD.allgather(dict(TIMES))
+    every = MPI.COMM_WORLD.allgather(dict(times))
     if MPI.COMM_WORLD.Get_rank() == 0:
         with open(out, "w", encoding="utf-8") as f:
-            json.dump({"status": status, "ranks": every}, f, indent=2)
+            json.dump({"status": status, "ranks": every}, f, indent=1)
     sys.exit(status)
+
+
+def main():
+    run_instrumented(instrument, TIMES)
 
 
 if __name__ == "__main__":

@@ -129,17 +129,8 @@ def main():
     if sys.argv[1] == "--compare":
         compare(sys.argv[2], sys.argv[3])
         return
-    tree, out, argv = sys.argv[1], sys.argv[2], sys.argv[3:]
-    sys.path.insert(0, tree)
-    instrument()
-    from mpi4py import MPI
-    from pmpm.__main__ import main as pmpm_main
-    status = pmpm_main(argv)
-    every = MPI.COMM_WORLD.allgather(TIMES)
-    if MPI.COMM_WORLD.Get_rank() == 0:
-        with open(out, "w", encoding="utf-8") as f:
-            json.dump({"status": status, "ranks": every}, f, indent=1)
-    sys.exit(status)
+    from busy_time import run_instrumented
+    run_instrumented(instrument, TIMES)
 
 
 if __name__ == "__main__":

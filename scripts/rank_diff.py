@@ -61,13 +61,7 @@ def on_global_grid(sim, comm, name):
 
 def particles(sim, comm):
     p = sim.particles
-    parts = comm.gather((p.id.copy(), p.x.copy(), p.v.copy()), root=0)
-    if comm.rank:
-        return None
-    ids = np.concatenate([a[0] for a in parts])
-    order = np.argsort(ids)
-    return ids[order], np.concatenate([a[1] for a in parts])[order], \
-        np.concatenate([a[2] for a in parts])[order]
+    return gathered_by_id(comm, p.id.copy(), p.x.copy(), p.v.copy())
 
 
 def fe_nodes(sim, comm):
@@ -76,12 +70,17 @@ def fe_nodes(sim, comm):
     if fem is None:
         return None
     own = fem.owned
-    parts = comm.gather((fem.node_id[own], fem.x[own], fem.v[own]), root=0)
+    return gathered_by_id(comm, fem.node_id[own], fem.x[own], fem.v[own])
+
+
+def gathered_by_id(comm, ids, x, v):
+    """Every rank's (ids, x, v) on rank 0, rows sorted by id; None on the others."""
+    parts = comm.gather((ids, x, v), root=0)
     if comm.rank:
         return None
-    ids = np.concatenate([a[0] for a in parts])
-    order = np.argsort(ids)
-    return ids[order], np.concatenate([a[1] for a in parts])[order], \
+    every = np.concatenate([a[0] for a in parts])
+    order = np.argsort(every)
+    return every[order], np.concatenate([a[1] for a in parts])[order], \
         np.concatenate([a[2] for a in parts])[order]
 
 
