@@ -17,6 +17,7 @@ two or three partials.
 """
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 #: the most partials a column can need: a non-overlapping expansion of doubles spans at
 #: most the 2098 binary places from 2**-1074 to 2**1024, 53 per partial (40), and more
@@ -32,25 +33,68 @@ def zeros(n_columns):
 
 @njit(cache=True, inline="always")
 def add(acc, c, x):
-    """Add the term ``x`` exactly to column ``c`` of ``acc`` (msum: each partial, from
-    the smallest, is combined with x by a two-sum; the non-zero low parts are kept)."""
+    """Add the term ``x`` exactly to column ``c`` of ``acc``."""
+    add_to(acc[c], x)
+
+
+@njit(cache=True, inline="always")
+def add_to(column, x):
+    """Add the term ``x`` exactly to one accumulator ``column`` (WIDTH,) (msum: each
+    partial, from the smallest, is combined with x by a two-sum; the non-zero low parts
+    are kept)."""
     if not np.isfinite(x):
-        acc[c, 1] += x
+        column[1] += x
         return
-    n = np.int64(acc[c, 0])
+    n = np.int64(column[0])
     kept = 0
     for j in range(n):
-        y = acc[c, HEAD + j]
+        y = column[HEAD + j]
         if abs(x) < abs(y):
             x, y = y, x
         high = x + y
         low = y - (high - x)
         if low != 0.0:
-            acc[c, HEAD + kept] = low
+            column[HEAD + kept] = low
             kept += 1
         x = high
-    acc[c, HEAD + kept] = x
-    acc[c, 0] = kept + 1
+    column[HEAD + kept] = x
+    column[0] = kept + 1
+
+
+def put2(out, i, j, x):
+    """``out[i, j] += x`` for a float array (2-D), exactly for an accumulator of that
+    shape (3-D, the partials last): a kernel that takes either sums plainly or exactly
+    (pmpm.kernels.forces, pmpm.fem.nodes: the force log)."""
+    out[i, j] += x
+
+
+def put3(out, a, b, c, x):
+    """``out[a, b, c] += x``, as :func:`put2` for 3-D arrays."""
+    out[a, b, c] += x
+
+
+@overload(put2, inline="always")
+def _put2(out, i, j, x):
+    if out.ndim == 2:
+        def plain(out, i, j, x):
+            out[i, j] += x
+        return plain
+
+    def exact(out, i, j, x):
+        add_to(out[i, j], x)
+    return exact
+
+
+@overload(put3, inline="always")
+def _put3(out, a, b, c, x):
+    if out.ndim == 3:
+        def plain(out, a, b, c, x):
+            out[a, b, c] += x
+        return plain
+
+    def exact(out, a, b, c, x):
+        add_to(out[a, b, c], x)
+    return exact
 
 
 @njit(cache=True)

@@ -93,7 +93,8 @@ class Runner:
         self.last_checkpoint = None
         self.restart = restart
         self.probes = Probes(self.world, self.output.probes, sim.particles, names,
-                             restart.get("probes") if restart else None, sim.elements) \
+                             restart.get("probes") if restart else None, sim.elements,
+                             sim.exact) \
             if self.output.probes else None
         if restart:
             self.restore(restart)
