@@ -132,8 +132,7 @@ def node_energy_sums(mass, v, element_mass, e_int, hourglass, removed_hourglass)
     acc = exact_sum.zeros(3)
     exact_sum.add_terms(acc, 0, kinetic_terms(mass, v))
     exact_sum.add_terms(acc, 1, element_mass * e_int)
-    exact_sum.add_terms(acc, 2, np.ascontiguousarray(hourglass, np.float64))
-    exact_sum.add(acc, 2, float(removed_hourglass))
+    exact_sum.add_terms(acc, 2, np.append(hourglass, float(removed_hourglass)))
     return acc
 
 
