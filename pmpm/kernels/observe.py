@@ -89,7 +89,7 @@ def mass_moment_along(mass, x, direction):
 def body_sums_exact(body, mass, x, v, e_int, w_p, damage, n_bodies):
     """(acc (n_bodies * N_SUMS, WIDTH), box (n_bodies, 6)): :func:`body_sums`' columns
     as exact accumulators, body b's column j at row b * N_SUMS + j, and the box."""
-    acc = np.zeros((n_bodies * N_SUMS, WIDTH))
+    acc = np.zeros((n_bodies * N_SUMS, WIDTH), np.int64)
     box = np.full((n_bodies, 6), -np.inf)
     for p in range(mass.shape[0]):
         b, m = body[p], mass[p]
@@ -117,7 +117,7 @@ def energy_sums_exact(mass, v, e_int):
     """acc (3, WIDTH): the kinetic and internal energy of :func:`kinetic_and_internal`
     as exact accumulators (the third column, hourglass, stays empty: particles have
     none)."""
-    acc = np.zeros((3, WIDTH))
+    acc = np.zeros((3, WIDTH), np.int64)
     for p in range(mass.shape[0]):
         m = mass[p]
         add(acc, 0, 0.5 * m * (v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1] + v[p, 2] * v[p, 2]))
@@ -129,7 +129,7 @@ def energy_sums_exact(mass, v, e_int):
 def moment_along_exact(mass, x, direction, sign):
     """acc (1, WIDTH): ``sign`` times :func:`mass_moment_along` as an exact
     accumulator (sign -1: the gravitational potential with direction = g)."""
-    acc = np.zeros((1, WIDTH))
+    acc = np.zeros((1, WIDTH), np.int64)
     for p in range(mass.shape[0]):
         add(acc, 0, sign * (mass[p] * (x[p, 0] * direction[0] + x[p, 1] * direction[1] +
                                        x[p, 2] * direction[2])))

@@ -118,6 +118,7 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
         observe.moment_along_exact(ones, x, np.zeros(3), -1.0)
         exact_sum.add_terms(exact_sum.zeros(1), 0, ones)
         exact_sum.add_rows(exact_sum.zeros(1), 0, np.zeros((1, 1)))
+        exact_sum.carry_all(exact_sum.zeros(1))
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))

@@ -66,10 +66,10 @@ class ForceLog(Coupling):
         #: the kernels add each node's and pair's impulse exactly, so that a row has the
         #: same bits on any rank count
         self.exact = bool(config.grid.exact_sums)
-        partials = (exact_sum.WIDTH,) if self.exact else ()
-        self.pair = np.zeros((n, n, kf.PAIR_WIDTH) + partials)
-        self.face = np.zeros((6, kf.FACE_WIDTH) + partials)
-        self.support = np.zeros((n, 3) + partials)
+        sums = exact_sum.zeros if self.exact else np.zeros
+        self.pair = sums((n, n, kf.PAIR_WIDTH))
+        self.face = sums((6, kf.FACE_WIDTH))
+        self.support = sums((n, 3))
         self.dissipated_pair = np.zeros((n, n))
         self.dissipated_face = np.zeros(6)
         self.since = 0.0                    # the time of the previous history row
@@ -181,9 +181,9 @@ class ForceLog(Coupling):
         for a, b in self.pairs():
             scaled.append(self.dissipated_pair[a, b] + self.dissipated_pair[b, a])
         scaled += [self.dissipated_face[f] for f in self.faces]
-        self.pair[:] = 0.0
-        self.face[:] = 0.0
-        self.support[:] = 0.0
+        self.pair[:] = 0
+        self.face[:] = 0
+        self.support[:] = 0
         self.since = time
         return scaled
 
@@ -193,8 +193,7 @@ class ForceLog(Coupling):
         one SUM reduction."""
         arrays = (self.pair, self.face, self.support)
         if self.exact:
-            sums = exact_totals(self.world, [a.reshape(-1, exact_sum.WIDTH) for a in arrays])
-            return tuple(s.reshape(a.shape[:-1]) for s, a in zip(sums, arrays))
+            return tuple(exact_totals(self.world, arrays))
         sums = self.world.sum(np.concatenate([a.ravel() for a in arrays]))
         ends = np.cumsum([a.size for a in arrays])[:-1]
         return tuple(s.reshape(a.shape) for s, a in zip(np.split(sums, ends), arrays))
@@ -246,7 +245,7 @@ class ForceLog(Coupling):
                     self.face[:, :face.shape[1]] = face
                     self.support[:] = state["support"]
                     return
-                full = np.zeros(self.face.shape[:2])
+                full = np.zeros(self.face.shape[:-1])
                 full[:, :face.shape[1]] = face
                 for acc, saved in ((self.pair, state["pair"]), (self.face, full),
                                    (self.support, state["support"])):

@@ -2,16 +2,13 @@
 
 With ``grid.exact_sums`` every sum over the ranks here is exact
 (:mod:`pmpm.kernels.exact_sum`): each rank adds its terms exactly to accumulators, every
-rank gathers every rank's partials and rounds their sum once (:func:`exact_totals`), so
+rank's sums are added as integers and rounded once (:func:`exact_totals`), so
 history.csv, forces.csv and summary.json hold the same bits on any rank count. Without,
 each rank sums in blocks and one SUM reduction adds the ranks' sums (cheaper, not
 exact)."""
-import math
-
 import numpy as np
 
 from ..kernels import exact_sum
-from ..kernels.exact_sum import HEAD
 from ..kernels.observe import (N_SUMS, body_sums, body_sums_exact, energy_sums_exact,
                                kinetic_and_internal)
 
@@ -31,30 +28,19 @@ def particle_energy_sums(particles):
 
 def exact_totals(world, accumulators):
     """The correctly rounded sums over all ranks of the columns of ``accumulators``
-    (each rank's list of exact accumulators, the same shapes on every rank; collective:
-    one allgather of the partials), as a list of float arrays of those columns, the
-    same bits on every rank and any rank count."""
-    mine = [trimmed(acc) for acc in accumulators]
-    every = world.allgather(mine) if world.size > 1 else [mine]
-    return [np.array([column_total([rank[k][c] for rank in every])
-                      for c in range(acc.shape[0])])
-            for k, acc in enumerate(accumulators)]
-
-
-def trimmed(acc):
-    """The accumulator without its unused partials (what goes over the wire)."""
-    used = int(acc[:, 0].max()) if acc.shape[0] else 0
-    return np.ascontiguousarray(acc[:, :HEAD + used])
-
-
-def column_total(rows):
-    """One column's total from each rank's (count, non-finite sum, partials...)."""
-    special = sum(float(row[1]) for row in rows)
-    parts = [float(v) for row in rows for v in row[HEAD:HEAD + int(row[0])]]
-    try:
-        return math.fsum(parts) + special
-    except OverflowError:             # the partials' exact sum overflows
-        return math.copysign(math.inf, sum(parts)) + special
+    (this rank's exact accumulators, pmpm.kernels.exact_sum, the same shapes on every
+    rank; collective: one SUM reduction of their bins, exact as integers), as float
+    arrays of their shapes less the bins: the same bits on every rank and any rank
+    count."""
+    flat = [acc.reshape(-1, exact_sum.WIDTH) for acc in accumulators]
+    for columns in flat:
+        exact_sum.carry_all(columns)
+    every = np.concatenate(flat) if flat else exact_sum.zeros(0)
+    every = world.sum(every) if world.size > 1 else every
+    totals = np.array([exact_sum.rounded(column) for column in every])
+    ends = np.cumsum([len(columns) for columns in flat])[:-1]
+    return [part.reshape(acc.shape[:-1])
+            for part, acc in zip(np.split(totals, ends), accumulators)]
 
 
 def body_stats(world, particles, names, exact=False):
