@@ -20,8 +20,9 @@ about a dozen integer operations.
 import math
 
 import numpy as np
-from numba import njit
-from numba.extending import overload
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic, overload
 
 #: bins of 32 binary places: the lowest significand bit of a double sits at place 0
 #: (2**-1074) to 2045, its highest at most 2098; two more bins take the carries
@@ -33,7 +34,6 @@ WIDTH = BINS + 4
 #: a term adds less than 2**53 to a bin: 1024 of them stay below 2**63
 CARRY_EVERY = 1024
 LOW = (1 << 32) - 1
-TWO_53 = 9007199254740992.0
 
 
 def zeros(shape):
@@ -49,24 +49,36 @@ def add(acc, c, x):
     add_to(acc[c], x)
 
 
+@intrinsic
+def float_bits(typingctx, x):
+    """The IEEE 754 bits of the double ``x`` as an int64 (a bit cast, no call)."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+    return types.int64(types.float64), codegen
+
+
 @njit(cache=True, inline="always")
 def add_to(column, x):
-    """Add the term ``x`` exactly to one accumulator ``column`` (WIDTH,)."""
-    if x == 0.0:
+    """Add the term ``x`` exactly to one accumulator ``column`` (WIDTH,): its 53-bit
+    significand, from its lowest bit's place (its biased exponent less one; 0 for the
+    subnormals), into the bin of that place and the next."""
+    bits = float_bits(x)
+    biased = (bits >> 52) & 0x7FF
+    significand = bits & 0xFFFFFFFFFFFFF
+    if biased == 0x7FF:                                # inf or NaN
+        column[NAN if significand else (NEG_INF if bits < 0 else POS_INF)] += 1
         return
-    if not np.isfinite(x):
-        column[NAN if x != x else (POS_INF if x > 0.0 else NEG_INF)] += 1
-        return
-    fraction, exponent = math.frexp(x)
-    significand = np.int64(abs(fraction) * TWO_53)     # exact: 53 bits
-    place = exponent + 1021                            # of the lowest bit: 2**(place - 1074)
-    if place < 0:                                      # subnormal: its low bits are zeros
-        significand >>= -place
+    if biased == 0:
+        if significand == 0:                           # +-0
+            return
         place = 0
+    else:
+        significand |= np.int64(1) << 52
+        place = biased - 1
     b, shift = place >> 5, place & 31
     low = (significand & ((np.int64(1) << (32 - shift)) - 1)) << shift
     high = significand >> (32 - shift)
-    if x < 0.0:
+    if bits < 0:
         column[b] -= low
         column[b + 1] -= high
     else:

@@ -83,7 +83,7 @@ def mass_moment_along(mass, x, direction):
 # -- exact sums (grid.exact_sums: the same bits on any rank count) ----------------------
 # The same sums as above, each term added exactly to an accumulator
 # (pmpm.kernels.exact_sum) instead of to a block's partial: the terms are the same
-# products as above, the rounding is the fold's over the ranks (pmpm.solver.observe).
+# products as above, rounded once when the ranks' sums are added (pmpm.solver.observe).
 
 @njit(cache=True)
 def body_sums_exact(body, mass, x, v, e_int, w_p, damage, n_bodies):
