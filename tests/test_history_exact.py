@@ -5,13 +5,13 @@ region's mass-weighted means) and summary.json's sums. Each rank adds its terms
 exactly and the ranks' partials are rounded once (pmpm.kernels.exact_sum). Without
 exact sums the same runs part (the particles themselves do: tests/test_exact_sums_mpi.py);
 before the output was summed exactly, history.csv's ``dissipated`` and forces.csv
-parted here too although the particles did not."""
+parted here too although the particles did not, and so did the loads' work."""
 import json
 import os
 
 import pytest
 
-from clihelp import CASES, run_ok
+from clihelp import CASES, ROOT, run_ok
 
 #: two spheres meeting across the x slab plane (grid contact method 2, symmetry faces),
 #: in contact from step 20 or so of 96
@@ -62,3 +62,18 @@ def test_output_files_are_the_same_bits_on_two_ranks(tmp_path, case, sets, probe
     forces = (one / "forces.csv").read_text().splitlines()
     last = [float(v) for v in forces[-1].split(",")]
     assert len(forces) > 50 and abs(last[4]) > 0.0     # the bodies press on each other
+
+
+def test_the_loads_work_is_the_same_bits_on_two_ranks(tmp_path):
+    """A traction on the end of an FEM bar whose loaded nodes both slabs hold (cut
+    along y): the loads' work over the steps (summary.json's energy balance) is summed
+    exactly too; summed per rank it parted in the last bits."""
+    case = os.path.join(ROOT, "runs", "fem_wave_bar.yaml")
+    sets = ["params.element=1", "params.width=6", "params.length=30", "time.end=0.01",
+            "output.times=[]", "grid.exact_sums=true", "decomposition.axis=y"]
+    one, two = run_both(tmp_path, case, sets)
+    assert (one / "history.csv").read_bytes() == (two / "history.csv").read_bytes()
+    assert summary_sums(one) == summary_sums(two)
+    assert summary_sums(one)["energy"]["total"] > 0.0   # the traction's work: the only source
+    with open(os.path.join(two, "summary.json"), encoding="utf-8") as handle:
+        assert json.load(handle)["slabs"]["bounds"] == [0, 3, 6]

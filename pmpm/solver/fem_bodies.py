@@ -44,6 +44,7 @@ from ..kernels.records import BodyMaterials
 from ..materials import layout
 from ..materials.state import MaterialState, with_later_columns
 from .bodies import initial_field
+from .energy import load_power_terms
 from .errors import SetupError
 from .fem_partition import element_owners, partition_mesh, shared_with
 from .kinds import BodyKind
@@ -506,6 +507,10 @@ class FemBodies(BodyKind):
         forces = self.load_scale[loaded, None] * load_vectors[self.load[loaded]]
         return float(np.einsum("ij,ij->", forces, self.v[loaded]))
 
+    def load_power_terms(self, load_vectors):
+        o = self.owned
+        return load_power_terms(self.load[o], self.load_scale[o], self.v[o], load_vectors)
+
     def centroids(self):
         return self.x[self.hexes].mean(axis=1)
 
@@ -559,6 +564,10 @@ class WholeMesh:
         self.mass = np.empty(len(self.x))
         lumped_masses(self.hexes, self.vol0, table.params[self.body, layout.RHO0],
                       self.mass)
+
+    def load_power_terms(self, load_vectors):
+        o = self.owned
+        return load_power_terms(self.load[o], self.load_scale[o], self.v[o], load_vectors)
 
     def centroids(self):
         return self.x[self.hexes].mean(axis=1)

@@ -89,6 +89,10 @@ class BodyKind:
         """The loads' power on this rank's part."""
         return 0.0
 
+    def load_power_terms(self, vectors):
+        """With exact sums: the loads' power on each of this rank's loaded points."""
+        return np.zeros(0)
+
     def element_count(self):
         """The elements this rank holds."""
         return 0

@@ -12,7 +12,7 @@ from ..kernels.observe import mass_moment_along, moment_along_exact
 from ..kernels.records import BodyMaterials, ExternalLoads, PointState
 from ..grid import window_bounds
 from ..particles.split import split
-from .energy import load_power
+from .energy import load_power, load_power_terms
 from .kinds import BodyKind
 from .observe import body_stats, particle_energies, particle_energy_sums
 from .workspace import Workspace
@@ -241,6 +241,10 @@ class ParticleBodies(BodyKind):
 
     def load_power(self, vectors):
         return load_power(self.particles, vectors)
+
+    def load_power_terms(self, vectors):
+        p = self.particles
+        return load_power_terms(p.load, p.load_scale, p.v, vectors)
 
     # -- ownership ---------------------------------------------------------------------
     def classify(self, grid, slabs, owner):

@@ -299,6 +299,10 @@ class Simulation:
         """This rank's power of the loads at ``vectors`` (particles and FE nodes)."""
         return sum(kind.load_power(vectors) for kind in self.all_kinds)
 
+    def load_power_terms(self, vectors):
+        """The same per loaded point, for exact sums (pmpm.solver.energy.LoadWork)."""
+        return np.concatenate([kind.load_power_terms(vectors) for kind in self.all_kinds])
+
     @property
     def n_elements(self):
         return self.world.sum(sum(kind.element_count() for kind in self.all_kinds))
