@@ -8,6 +8,7 @@ before the output was summed exactly, history.csv's ``dissipated`` and forces.cs
 parted here too although the particles did not, and so did the loads' work."""
 import json
 import os
+import shutil
 
 import pytest
 
@@ -77,3 +78,20 @@ def test_the_loads_work_is_the_same_bits_on_two_ranks(tmp_path):
     assert summary_sums(one)["energy"]["total"] > 0.0   # the traction's work: the only source
     with open(os.path.join(two, "summary.json"), encoding="utf-8") as handle:
         assert json.load(handle)["slabs"]["bounds"] == [0, 3, 6]
+
+
+def test_a_restart_on_two_ranks_continues_the_exact_sums(tmp_path):
+    """A restart keeps the exact sums themselves (the force log's and the loads' bins):
+    from a checkpoint between two history rows (step 75 of rows 70 and 77), on 2 ranks,
+    the files are those of the uninterrupted 1-rank run to the bit."""
+    case, sets = HERTZ
+    sets = sets[:-1] + ["output.history_every=7", "output.checkpoint_every=25"]
+    args = [case, "--quiet"] + [item for s in sets for item in ("--set", s)]
+    whole, cut = tmp_path / "whole", tmp_path / "cut"
+    run_ok(args + ["--out", whole])
+    shutil.copytree(whole, cut)
+    os.remove(cut / "checkpoint_000096.h5")        # the run's last: restart from step 75
+    run_ok(args + ["--out", cut, "--restart"], 2)
+    for name in ("history.csv", "forces.csv"):
+        assert (whole / name).read_bytes() == (cut / name).read_bytes(), name
+    assert summary_sums(whole) == summary_sums(cut)

@@ -189,9 +189,21 @@ class LoadWork:
             return float(exact_totals(self.world, [self.local])[0][0])
         return self.world.sum(self.local)
 
-    def restore(self, work):
-        """Continue from a checkpoint's total (on one rank: rank 0)."""
-        if self.exact:
-            exact_sum.add_terms(self.local, 0, np.array([float(work)]))
-        else:
+    def state(self):
+        """With exact sums the accumulator's bins summed over the ranks (collective), so
+        that a restart continues the exact sum; else None (the history row's total, in
+        the energy watch's state, is what a restart takes)."""
+        if not self.exact:
+            return None
+        exact_sum.carry_all(self.local)
+        return self.world.sum(self.local).tolist()
+
+    def restore(self, work, bins=None):
+        """Continue from a checkpoint (on one rank: rank 0): its exact sum's ``bins``
+        (:meth:`state`) where it has them, else its ``work`` so far."""
+        if not self.exact:
             self.local = work
+        elif bins is not None:
+            self.local[:] = np.asarray(bins, np.int64)
+        else:
+            exact_sum.add_terms(self.local, 0, np.array([float(work)]))

@@ -226,10 +226,14 @@ class ForceLog(Coupling):
         """The impulses since the last row, summed over the ranks (collective), so that a
         restart on any number of ranks continues the interval."""
         pair, face, support = self.totals()
-        return {"since": self.since, "pair": pair.tolist(), "face": face.tolist(),
-                "support": support.tolist(),
-                "dissipated_pair": self.dissipated_pair.tolist(),
-                "dissipated_face": self.dissipated_face.tolist()}
+        state = {"since": self.since, "pair": pair.tolist(), "face": face.tolist(),
+                 "support": support.tolist(),
+                 "dissipated_pair": self.dissipated_pair.tolist(),
+                 "dissipated_face": self.dissipated_face.tolist()}
+        if self.exact:          # the exact sums themselves: a restart continues them
+            state["bins"] = [self.world.sum(a).tolist()
+                             for a in (self.pair, self.face, self.support)]
+        return state
 
     def restore(self, state):
         """Rank 0 takes the saved sums, the others start from zero; every rank takes
@@ -244,6 +248,11 @@ class ForceLog(Coupling):
                     self.pair[:] = state["pair"]
                     self.face[:, :face.shape[1]] = face
                     self.support[:] = state["support"]
+                    return
+                bins = state.get("bins")
+                if bins is not None:
+                    for acc, saved in zip((self.pair, self.face, self.support), bins):
+                        acc[:] = np.asarray(saved, np.int64)
                     return
                 full = np.zeros(self.face.shape[:-1])
                 full[:, :face.shape[1]] = face

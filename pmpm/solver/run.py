@@ -111,7 +111,7 @@ class Runner:
         if "body_mass0" in scalars:
             self.mass0 = np.asarray(scalars["body_mass0"], dtype=np.float64)
         if self.world.is_root:
-            self.load_work.restore(self.watch.load_work)
+            self.load_work.restore(self.watch.load_work, scalars.get("load_work"))
 
     # -- run ---------------------------------------------------------------------
     def run(self, compile_s=0.0, baseline_rss=0):
@@ -337,7 +337,7 @@ class Runner:
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    "body_mass0": self.mass0.tolist(),
                    "probes": self.probes.state() if self.probes else {},
-                   **sim.restart_state()}
+                   "load_work": self.load_work.state(), **sim.restart_state()}
         case = None if self.case is None else {"text": self.case_text, "case": self.case}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
                            case=case, groups=sim.checkpoint_groups())
