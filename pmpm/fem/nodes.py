@@ -15,6 +15,7 @@ Nothing here reads configuration or calls MPI.
 import numpy as np
 from numba import njit
 
+from ..kernels.exact_sum import put2
 from ..materials.tensors import fdiv
 
 
@@ -89,15 +90,15 @@ def advance_and_hold(x, v, force, mass, fixed_dof, movable, axis, side, plane, f
         i2 = m * (v[n, 2] - b2) - dt * force[n, 2]
         if fixed_dof[n, 0] or fixed_dof[n, 1] or fixed_dof[n, 2]:
             bb = node_body[n]
-            support[bb, 0] += i0
-            support[bb, 1] += i1
-            support[bb, 2] += i2
+            put2(support, bb, 0, i0)
+            put2(support, bb, 1, i1)
+            put2(support, bb, 2, i2)
             continue
         for i in range(3):
             imp = i0 if i == 0 else (i1 if i == 1 else i2)
             f = face_of_component(x, n, i, imp, axis, side, plane, fixed, tol)
             if f >= 0:
-                face[f, i] += imp
+                put2(face, f, i, imp)
 
 
 @njit(cache=True)

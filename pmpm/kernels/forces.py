@@ -25,6 +25,7 @@ from numba import njit
 
 from .boundary import FIXED, SLIP, UPPER, constrain_coded
 from .contact import _heaviest_other
+from .exact_sum import put2, put3
 
 #: the width of one pair's record: impulse (3), normal impulse (compression positive),
 #: tangential impulse (3), dissipated energy
@@ -114,8 +115,8 @@ def face_impulses(nodes, face_of, count, raw, gvel, gnew, block, share, dt, m_ti
             impulse += share * (m * gvel[n, d] - raw[k, 1 + d])
             face = _face_of_component(block.faces[n], g, block, d, face_of[k])
             if face >= 0:
-                out[face, d] += impulse
-                out[face, 3] -= impulse * gnew[n, d]
+                put2(out, face, d, impulse)
+                put2(out, face, 3, -(impulse * gnew[n, d]))
 
 
 @njit(cache=True)
@@ -155,7 +156,7 @@ def contact_impulses(slots, real_mass, share, body_rigid, codes, counted, per_pl
             work = 0.0
             for d in range(3):
                 work -= imp[d] * (cnew[s, b, d] - ref[d])
-            out[b, other, 7] += work
+            put3(out, b, other, 7, work)
 
 
 @njit(cache=True, inline="always")
@@ -249,9 +250,9 @@ def add_pair(out, b, other, imp, normal):
     ``normal`` (positive pushing inward) and its tangential rest."""
     along = imp[0] * normal[0] + imp[1] * normal[1] + imp[2] * normal[2]
     for d in range(3):
-        out[b, other, d] += imp[d]
-        out[b, other, 4 + d] += imp[d] - along * normal[d]
-    out[b, other, 3] -= along
+        put3(out, b, other, d, imp[d])
+        put3(out, b, other, 4 + d, imp[d] - along * normal[d])
+    put3(out, b, other, 3, -along)
 
 
 @njit(cache=True)
@@ -262,8 +263,8 @@ def pair_impulses(first, second, impulses, normals, work, out):
     it dissipated (:func:`surface_pair_work`), half to each direction of the pair."""
     imp, normal = np.empty(3), np.empty(3)
     for k in range(impulses.shape[0]):
-        out[first[k], second[k], 7] += 0.5 * work[k]
-        out[second[k], first[k], 7] += 0.5 * work[k]
+        put3(out, first[k], second[k], 7, 0.5 * work[k])
+        put3(out, second[k], first[k], 7, 0.5 * work[k])
         for d in range(3):
             imp[d] = -impulses[k, d]
             normal[d] = -normals[k, d]          # the first body's outward normal

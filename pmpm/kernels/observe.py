@@ -5,6 +5,8 @@ mass, count, momentum moments, energies and failed points, and the bounding box 
 import numpy as np
 from numba import njit
 
+from .exact_sum import WIDTH, add
+
 #: the columns of :func:`body_sums`' sums: mass, particles, m x (3), m v (3), kinetic,
 #: internal, plastic work, failed particles
 N_SUMS = 12
@@ -76,3 +78,59 @@ def mass_moment_along(mass, x, direction):
                                x[p, 2] * direction[2])
         total += part
     return total
+
+
+# -- exact sums (grid.exact_sums: the same bits on any rank count) ----------------------
+# The same sums as above, each term added exactly to an accumulator
+# (pmpm.kernels.exact_sum) instead of to a block's partial: the terms are the same
+# products as above, rounded once when the ranks' sums are added (pmpm.solver.observe).
+
+@njit(cache=True)
+def body_sums_exact(body, mass, x, v, e_int, w_p, damage, n_bodies):
+    """(acc (n_bodies * N_SUMS, WIDTH), box (n_bodies, 6)): :func:`body_sums`' columns
+    as exact accumulators, body b's column j at row b * N_SUMS + j, and the box."""
+    acc = np.zeros((n_bodies * N_SUMS, WIDTH), np.int64)
+    box = np.full((n_bodies, 6), -np.inf)
+    for p in range(mass.shape[0]):
+        b, m = body[p], mass[p]
+        r = b * N_SUMS
+        v0, v1, v2 = v[p, 0], v[p, 1], v[p, 2]
+        add(acc, r, m)
+        add(acc, r + 1, 1.0)
+        for a in range(3):
+            add(acc, r + 2 + a, m * x[p, a])
+            box[b, a] = max(box[b, a], -x[p, a])
+            box[b, 3 + a] = max(box[b, 3 + a], x[p, a])
+        add(acc, r + 5, m * v0)
+        add(acc, r + 6, m * v1)
+        add(acc, r + 7, m * v2)
+        add(acc, r + 8, 0.5 * m * (v0 * v0 + v1 * v1 + v2 * v2))
+        add(acc, r + 9, m * e_int[p])
+        add(acc, r + 10, m * w_p[p])
+        if damage[p] >= 1.0:
+            add(acc, r + 11, 1.0)
+    return acc, box
+
+
+@njit(cache=True)
+def energy_sums_exact(mass, v, e_int):
+    """acc (3, WIDTH): the kinetic and internal energy of :func:`kinetic_and_internal`
+    as exact accumulators (the third column, hourglass, stays empty: particles have
+    none)."""
+    acc = np.zeros((3, WIDTH), np.int64)
+    for p in range(mass.shape[0]):
+        m = mass[p]
+        add(acc, 0, 0.5 * m * (v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1] + v[p, 2] * v[p, 2]))
+        add(acc, 1, m * e_int[p])
+    return acc
+
+
+@njit(cache=True)
+def moment_along_exact(mass, x, direction, sign):
+    """acc (1, WIDTH): ``sign`` times :func:`mass_moment_along` as an exact
+    accumulator (sign -1: the gravitational potential with direction = g)."""
+    acc = np.zeros((1, WIDTH), np.int64)
+    for p in range(mass.shape[0]):
+        add(acc, 0, sign * (mass[p] * (x[p, 0] * direction[0] + x[p, 1] * direction[1] +
+                                       x[p, 2] * direction[2])))
+    return acc

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..materials import layout
 from ..materials.state import MaterialState
-from . import boundary, contact, mpm, observe, tied
+from . import boundary, contact, exact_sum, mpm, observe, tied
 from .cache import refresh_kernel_caches
 from .portable import cube_roots
 from .shape import HALO, LINEAR, MARKERS, SHAPE_CODES
@@ -112,6 +112,13 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     observe.body_sums(pts.body, ones, x, zeros3, ones, ones, ones, 1)   # history rows
     observe.kinetic_and_internal(ones, zeros3, ones)
     observe.mass_moment_along(ones, x, np.zeros(3))
+    if exact:                                          # history rows with exact sums
+        observe.body_sums_exact(pts.body, ones, x, zeros3, ones, ones, ones, 1)
+        observe.energy_sums_exact(ones, zeros3, ones)
+        observe.moment_along_exact(ones, x, np.zeros(3), -1.0)
+        exact_sum.add_terms(exact_sum.zeros(1), 0, ones)
+        exact_sum.add_rows(exact_sum.zeros(1), 0, np.zeros((1, 1)))
+        exact_sum.carry_all(exact_sum.zeros(1))
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))

@@ -17,7 +17,7 @@ from ..fem.hexahedron import element_volumes
 from ..fem import nodes as fn
 from ..fem.stability import mesh_rate
 from ..materials import layout
-from . import fem_grid, forces, node_contact, surface_contact
+from . import exact_sum, fem_grid, forces, node_contact, surface_contact
 from .records import LayerSums
 from .shape import HALO
 
@@ -47,18 +47,20 @@ def warm_up_elements(mat, bodies, exact=False):
     fe.external_forces(mass, np.zeros(3), np.full(8, -1, np.int32), np.zeros(1),
                        np.zeros((1, 3)), force)
     fe.advance_velocities(v, force, mass, np.zeros((8, 3), np.bool_), 1e-3)
-    warm_up_nodes(x, v, force, mass)
+    warm_up_nodes(x, v, force, mass, exact)
     fe.advance_positions(x, v, 1e-3)
 
 
-def warm_up_nodes(x, v, force, mass):
+def warm_up_nodes(x, v, force, mass, exact=False):
     """The FE nodes' kernels (pmpm.fem.nodes) with the types FemBodies passes: one slip
-    face z-, a force log's sums for one body."""
+    face z-, a force log's sums for one body (with ``exact`` also as exact
+    accumulators, pmpm.kernels.exact_sum)."""
     movable, fixed = np.ones(len(x), np.bool_), np.zeros((len(x), 3), np.bool_)
     faces = (np.array([2], np.int64), np.array([-1.0]), np.zeros(1), np.zeros(1, np.bool_))
-    fn.advance_and_hold(x, v, force, mass, fixed, movable, *faces, 1e-3, 1e-9, True,
-                        movable.copy(), np.zeros(len(x), np.int32), np.zeros((1, 3)),
-                        np.zeros((6, 4)))
+    for exact_sums in sums_variants(exact):
+        fn.advance_and_hold(x, v, force, mass, fixed, movable, *faces, 1e-3, 1e-9, True,
+                            movable.copy(), np.zeros(len(x), np.int32),
+                            sums_like((1, 3), exact_sums), sums_like((6, 4), exact_sums))
     fn.hold_at_faces(x, v, movable, *faces, 0.0, 1e-9)
     fn.first_outside(x, np.zeros(3), np.ones(3), 1e-9)
 
@@ -164,21 +166,40 @@ def _layers(order, width, halo, per_plane):
                      np.zeros((1, per_plane, width)))
 
 
-def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False):
+def sums_variants(exact):
+    """The kinds of the force log's sums: plain (False), and with ``exact`` (grid.
+    exact_sums) exact accumulators (True)."""
+    return (False, True) if exact else (False,)
+
+
+def sums_like(shape, exact):
+    """Zero sums of ``shape``: floats, or an exact accumulator (pmpm.kernels.exact_sum)."""
+    return exact_sum.zeros(shape) if exact else np.zeros(shape)
+
+
+def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False, exact=False):
     """The force log's kernels (pmpm.solver.forces): the grid faces' impulses, the
     surface pairs', and with grid contact's ``slots`` its pairs' (``free_rigid``: also
-    the free rigid particle bodies' partners, pmpm.solver.rigid_particles)."""
+    the free rigid particle bodies' partners, pmpm.solver.rigid_particles); with
+    ``exact`` also into exact accumulators."""
+    for exact_sums in sums_variants(exact):
+        warm_up_force_sums(block, pairs, gvel, gnew, slots, free_rigid and not exact_sums,
+                           exact_sums)
+
+
+def warm_up_force_sums(block, pairs, gvel, gnew, slots, free_rigid, exact_sums):
+    """:func:`warm_up_forces` into plain or (``exact_sums``) exact sums."""
     n = len(block.faces)
     nodes, face_of = np.empty(n, np.int64), np.empty(n, np.int64)
     counted = np.ones(1, np.bool_)
     count = forces.face_zone(block.faces, pairs, counted, n, nodes, face_of)
     raw = np.empty((count, forces.RAW_WIDTH))
     forces.keep_rows(nodes, count, gnew, 0, raw)
-    face = np.zeros((6, forces.FACE_WIDTH))
+    face = sums_like((6, forces.FACE_WIDTH), exact_sums)
     slave = np.zeros(n, np.int8)
     forces.face_impulses(nodes, face_of, count, raw, gvel, gnew, block, 0.0, 1e-3, 1e-12,
                          slave, face)
-    pair = np.zeros((1, 1, forces.PAIR_WIDTH))
+    pair = sums_like((1, 1, forces.PAIR_WIDTH), exact_sums)
     i0, f2 = np.zeros(0, np.int64), np.zeros((0, 3))
     forces.pair_impulses(i0, i0.copy(), f2, f2.copy(), np.zeros(0), pair)
     if slots is None:
@@ -186,7 +207,7 @@ def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False):
     nb = slots.cnodal.shape[1]
     real_mass, share, rigid = np.zeros((0, nb)), np.ones(nb), np.zeros(nb, np.bool_)
     forces.contact_impulses(slots, real_mass, share, rigid, block.faces, counted, n,
-                            1e-3, 1e-12, slave, np.zeros((nb, nb, forces.PAIR_WIDTH)))
+                            1e-3, 1e-12, slave, sums_like((nb, nb, forces.PAIR_WIDTH), exact_sums))
     if free_rigid:
         forces.rigid_partner_impulses(slots, real_mass, share, rigid, rigid.copy(),
                                       block.faces, counted, n, 1e-3, np.zeros((nb, 3)))
@@ -210,5 +231,6 @@ def warm_up_couplings(pts, geo, block, pairs, mat, bodies, grids, contact_state,
     if kinds.get("fem_grid") and slots is not None:
         warm_up_fem_grid(pts, geo, block, force, slots, view, kinds.get("exact", False))
     if kinds.get("forces"):
-        warm_up_forces(block, pairs, gvel, gnew, slots, kinds.get("free_rigid", False))
+        warm_up_forces(block, pairs, gvel, gnew, slots, kinds.get("free_rigid", False),
+                       kinds.get("exact", False))
 

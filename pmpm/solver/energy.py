@@ -11,6 +11,9 @@ import sys
 
 import numpy as np
 
+from ..kernels import exact_sum
+from .observe import exact_totals
+
 CAUSES = ("particles crossing cells with linear shape functions, worst where the "
           "crossing material is highly stressed, as behind a strong shock (use "
           "grid.shape_functions: bspline or gimp, or lower time.cfl), contact that keeps "
@@ -145,3 +148,62 @@ def load_power(particles, load_vectors):
     p = particles
     forces = p.load_scale[loaded, None] * load_vectors[p.load[loaded]]
     return float(np.einsum("ij,ij->", forces, p.v[loaded]))
+
+
+def load_power_terms(load, scale, v, load_vectors):
+    """Per loaded point (``load`` >= 0) its scale * load . v, elementwise (the same bits
+    on any rank: no BLAS), for the exact sums."""
+    loaded = load >= 0
+    force = scale[loaded, None] * load_vectors[load[loaded]]
+    u = v[loaded]
+    return force[:, 0] * u[:, 0] + force[:, 1] * u[:, 1] + force[:, 2] * u[:, 2]
+
+
+class LoadWork:
+    """The work the loads have done so far, the trapezoidal rule over each step of the
+    power before and after it (the run loop's). Each rank sums its points' part; with
+    ``exact`` (grid.exact_sums) each point's half-step work is a term of an exact
+    accumulator (pmpm.kernels.exact_sum), so the total has the same bits on any rank
+    count, else a float per rank summed over the ranks at each history row."""
+
+    def __init__(self, world, exact):
+        self.world, self.exact = world, exact
+        self.local = exact_sum.zeros(1) if exact else 0.0
+
+    def power(self, sim, vectors):
+        """This rank's power of the loads at ``vectors``: a float, or with exact sums the
+        terms of its points (pmpm.solver.simulation.Simulation.load_power_terms)."""
+        return sim.load_power_terms(vectors) if self.exact else sim.load_power(vectors)
+
+    def add_step(self, dt, before, after):
+        """Add a step's work from the powers :meth:`power` gave before and after it."""
+        if self.exact:
+            exact_sum.add_terms(self.local, 0, 0.5 * dt * before)
+            exact_sum.add_terms(self.local, 0, 0.5 * dt * after)
+        else:
+            self.local += 0.5 * dt * (before + after)
+
+    def total(self):
+        """The work over all ranks (collective)."""
+        if self.exact:
+            return float(exact_totals(self.world, [self.local])[0][0])
+        return self.world.sum(self.local)
+
+    def state(self):
+        """With exact sums the accumulator's bins summed over the ranks (collective), so
+        that a restart continues the exact sum; else None (the history row's total, in
+        the energy watch's state, is what a restart takes)."""
+        if not self.exact:
+            return None
+        exact_sum.carry_all(self.local)
+        return self.world.sum(self.local).tolist()
+
+    def restore(self, work, bins=None):
+        """Continue from a checkpoint (on one rank: rank 0): its exact sum's ``bins``
+        (:meth:`state`) where it has them, else its ``work`` so far."""
+        if not self.exact:
+            self.local = work
+        elif bins is not None:
+            self.local[:] = np.asarray(bins, np.int64)
+        else:
+            exact_sum.add_terms(self.local, 0, np.array([float(work)]))

@@ -31,6 +31,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from . import observe
 from ..comm.shared_nodes import sum_shared_rows, sum_shared_rows_in_element_order
 from ..comm.sparse import exchange_arrays
 from ..fem.elements import (ASSUMED_STRAIN, FAILED_UPDATE, HOURGLASS_KINDS,
@@ -43,6 +44,7 @@ from ..kernels.records import BodyMaterials
 from ..materials import layout
 from ..materials.state import MaterialState, with_later_columns
 from .bodies import initial_field
+from .energy import load_power_terms
 from .errors import SetupError
 from .fem_partition import element_owners, partition_mesh, shared_with
 from .kinds import BodyKind
@@ -463,8 +465,30 @@ class FemBodies(BodyKind):
                        np.count_nonzero(self.state.damage[elems] >= 1.0)]
             if nodes.any():
                 box[b, :3], box[b, 3:] = -x.min(axis=0), x.max(axis=0)
-        sums, box = world.sum(sums), world.max(box)
+        if self.exact:
+            sums = self.exact_body_sums(world)
+        else:
+            sums = world.sum(sums)
+        box = world.max(box)
         return {self.names[b]: body_entry(sums[b], box[b]) for b in self.body_indices}
+
+    def exact_body_sums(self, world):
+        """body_stats' sums, exact over the ranks (pmpm.solver.observe)."""
+        s, o = self.state, self.owned
+        acc = observe.fem_sums_exact(
+            len(self.names), (self.node_body[o], self.mass[o], self.x[o], self.v[o]),
+            (self.body, self.element_mass, s.e_int, self.hourglass.energy, s.w_p,
+             s.damage))
+        return observe.exact_totals(world, [acc])[0].reshape(len(self.names), -1)
+
+    def energy_sums(self):
+        o = self.owned
+        return observe.node_energy_sums(self.mass[o], self.v[o], self.element_mass,
+                                        self.state.e_int, self.hourglass.energy,
+                                        self.removed_hourglass)
+
+    def potential_sums(self, gravity):
+        return observe.potential_sums(self.mass[self.owned], self.x[self.owned], gravity)
 
     def take_loads(self, vectors):
         self.load_vectors = vectors
@@ -482,6 +506,10 @@ class FemBodies(BodyKind):
             return 0.0
         forces = self.load_scale[loaded, None] * load_vectors[self.load[loaded]]
         return float(np.einsum("ij,ij->", forces, self.v[loaded]))
+
+    def load_power_terms(self, load_vectors):
+        o = self.owned
+        return load_power_terms(self.load[o], self.load_scale[o], self.v[o], load_vectors)
 
     def centroids(self):
         return self.x[self.hexes].mean(axis=1)
@@ -536,6 +564,10 @@ class WholeMesh:
         self.mass = np.empty(len(self.x))
         lumped_masses(self.hexes, self.vol0, table.params[self.body, layout.RHO0],
                       self.mass)
+
+    def load_power_terms(self, load_vectors):
+        o = self.owned
+        return load_power_terms(self.load[o], self.load_scale[o], self.v[o], load_vectors)
 
     def centroids(self):
         return self.x[self.hexes].mean(axis=1)

@@ -29,11 +29,13 @@ Attribution rules worth knowing:
 """
 import numpy as np
 
+from ..kernels import exact_sum
 from ..kernels import forces as kf
 from ..kernels.mpm import NODAL_COMPONENTS
 from ..kernels.tied import mark_slaves
 from .contact import start_shares
 from .couplings import Coupling
+from .observe import exact_totals
 
 FACE_NAMES = ("x-", "x+", "y-", "y+", "z-", "z+")
 
@@ -60,9 +62,14 @@ class ForceLog(Coupling):
         self.faces = [f for f, name in enumerate(FACE_NAMES)
                       if config.grid.boundary[name] != "free"]
         self.fem_supported = []
-        self.pair = np.zeros((n, n, kf.PAIR_WIDTH))
-        self.face = np.zeros((6, kf.FACE_WIDTH))
-        self.support = np.zeros((n, 3))
+        #: with exact sums each value is an exact accumulator (pmpm.kernels.exact_sum):
+        #: the kernels add each node's and pair's impulse exactly, so that a row has the
+        #: same bits on any rank count
+        self.exact = bool(config.grid.exact_sums)
+        sums = exact_sum.zeros if self.exact else np.zeros
+        self.pair = sums((n, n, kf.PAIR_WIDTH))
+        self.face = sums((6, kf.FACE_WIDTH))
+        self.support = sums((n, 3))
         self.dissipated_pair = np.zeros((n, n))
         self.dissipated_face = np.zeros(6)
         self.since = 0.0                    # the time of the previous history row
@@ -155,12 +162,7 @@ class ForceLog(Coupling):
     def take_row(self, time):
         """The mean forces since the previous row (collective): a dict of column name ->
         value, in the column order of :meth:`columns`; the accumulators restart."""
-        sums = self.world.sum(np.concatenate([self.pair.ravel(), self.face.ravel(),
-                                              self.support.ravel()]))
-        n, end = len(self.names), self.pair.size + self.face.size
-        pair = sums[:self.pair.size].reshape(self.pair.shape)
-        face = sums[self.pair.size:end].reshape(self.face.shape)
-        support = sums[end:].reshape(n, 3)
+        pair, face, support = self.totals()
         self.dissipated_pair += pair[:, :, 7]
         self.dissipated_face += face[:, 3]
         span = time - self.since
@@ -179,11 +181,22 @@ class ForceLog(Coupling):
         for a, b in self.pairs():
             scaled.append(self.dissipated_pair[a, b] + self.dissipated_pair[b, a])
         scaled += [self.dissipated_face[f] for f in self.faces]
-        self.pair[:] = 0.0
-        self.face[:] = 0.0
-        self.support[:] = 0.0
+        self.pair[:] = 0
+        self.face[:] = 0
+        self.support[:] = 0
         self.since = time
         return scaled
+
+    def totals(self):
+        """(pair, face, support) since the last row, summed over the ranks
+        (collective): exactly with exact sums (one allgather of the partials), else
+        one SUM reduction."""
+        arrays = (self.pair, self.face, self.support)
+        if self.exact:
+            return tuple(exact_totals(self.world, arrays))
+        sums = self.world.sum(np.concatenate([a.ravel() for a in arrays]))
+        ends = np.cumsum([a.size for a in arrays])[:-1]
+        return tuple(s.reshape(a.shape) for s, a in zip(np.split(sums, ends), arrays))
 
     @property
     def dissipated(self):
@@ -212,11 +225,15 @@ class ForceLog(Coupling):
     def state(self):
         """The impulses since the last row, summed over the ranks (collective), so that a
         restart on any number of ranks continues the interval."""
-        return {"since": self.since, "pair": self.world.sum(self.pair).tolist(),
-                "face": self.world.sum(self.face).tolist(),
-                "support": self.world.sum(self.support).tolist(),
-                "dissipated_pair": self.dissipated_pair.tolist(),
-                "dissipated_face": self.dissipated_face.tolist()}
+        pair, face, support = self.totals()
+        state = {"since": self.since, "pair": pair.tolist(), "face": face.tolist(),
+                 "support": support.tolist(),
+                 "dissipated_pair": self.dissipated_pair.tolist(),
+                 "dissipated_face": self.dissipated_face.tolist()}
+        if self.exact:          # the exact sums themselves: a restart continues them
+            state["bins"] = [self.world.sum(a).tolist()
+                             for a in (self.pair, self.face, self.support)]
+        return state
 
     def restore(self, state):
         """Rank 0 takes the saved sums, the others start from zero; every rank takes
@@ -226,10 +243,23 @@ class ForceLog(Coupling):
             self.dissipated_pair[:] = state.get("dissipated_pair", 0.0)
             self.dissipated_face[:] = state.get("dissipated_face", 0.0)
             if self.world.is_root:
-                self.pair[:] = state["pair"]
                 face = np.asarray(state["face"])      # 3 wide before the energies
-                self.face[:, :face.shape[1]] = face
-                self.support[:] = state["support"]
+                if not self.exact:
+                    self.pair[:] = state["pair"]
+                    self.face[:, :face.shape[1]] = face
+                    self.support[:] = state["support"]
+                    return
+                bins = state.get("bins")
+                if bins is not None:
+                    for acc, saved in zip((self.pair, self.face, self.support), bins):
+                        acc[:] = np.asarray(saved, np.int64)
+                    return
+                full = np.zeros(self.face.shape[:-1])
+                full[:, :face.shape[1]] = face
+                for acc, saved in ((self.pair, state["pair"]), (self.face, full),
+                                   (self.support, state["support"])):
+                    exact_sum.add_rows(acc.reshape(-1, exact_sum.WIDTH), 0,
+                                       np.asarray(saved, np.float64).reshape(-1, 1))
 
 
 def counted_planes(block, rank):

@@ -11,6 +11,8 @@ not do with the defaults below: nothing, or zero.
 """
 import numpy as np
 
+from ..kernels import exact_sum
+
 __all__ = ["BodyKind"]
 
 
@@ -65,6 +67,11 @@ class BodyKind:
         """(kinetic, internal, hourglass) of this rank's part."""
         return np.zeros(3)
 
+    def energy_sums(self):
+        """With exact sums: (kinetic, internal, hourglass) of this rank's part as an
+        exact accumulator (pmpm.kernels.exact_sum)."""
+        return exact_sum.zeros(3)
+
     def body_stats(self, world):
         """Per body name this kind carries, its summary entry over all ranks
         (collective)."""
@@ -74,9 +81,17 @@ class BodyKind:
         """-sum m g.x of this rank's part."""
         return 0.0
 
+    def potential_sums(self, gravity):
+        """With exact sums: -sum m g.x of this rank's part as an exact accumulator."""
+        return exact_sum.zeros(1)
+
     def load_power(self, vectors):
         """The loads' power on this rank's part."""
         return 0.0
+
+    def load_power_terms(self, vectors):
+        """With exact sums: the loads' power on each of this rank's loaded points."""
+        return np.zeros(0)
 
     def element_count(self):
         """The elements this rank holds."""

@@ -8,13 +8,13 @@ import numpy as np
 
 from ..kernels import contact as kc
 from ..kernels import mpm, tied
-from ..kernels.observe import mass_moment_along
+from ..kernels.observe import mass_moment_along, moment_along_exact
 from ..kernels.records import BodyMaterials, ExternalLoads, PointState
 from ..grid import window_bounds
 from ..particles.split import split
-from .energy import load_power
+from .energy import load_power, load_power_terms
 from .kinds import BodyKind
-from .observe import body_stats, particle_energies
+from .observe import body_stats, particle_energies, particle_energy_sums
 from .workspace import Workspace
 
 
@@ -225,15 +225,26 @@ class ParticleBodies(BodyKind):
     def energies(self):
         return (*particle_energies(self.particles), 0.0)
 
+    def energy_sums(self):
+        return particle_energy_sums(self.particles)
+
     def body_stats(self, world):
-        return body_stats(world, self.particles, self.bodies.names)
+        return body_stats(world, self.particles, self.bodies.names, self.exact)
 
     def potential(self, gravity):
         p = self.particles
         return -mass_moment_along(p.mass, p.x, np.asarray(gravity, np.float64))
 
+    def potential_sums(self, gravity):
+        p = self.particles
+        return moment_along_exact(p.mass, p.x, np.asarray(gravity, np.float64), -1.0)
+
     def load_power(self, vectors):
         return load_power(self.particles, vectors)
+
+    def load_power_terms(self, vectors):
+        p = self.particles
+        return load_power_terms(p.load, p.load_scale, p.v, vectors)
 
     # -- ownership ---------------------------------------------------------------------
     def classify(self, grid, slabs, owner):

@@ -20,7 +20,9 @@ followed points, so a restart follows the same ones."""
 import numpy as np
 
 from ..io.derived import stress_invariants
+from ..kernels import exact_sum
 from .errors import SetupError
+from .observe import exact_totals
 
 #: The columns of a sample, after step and time.
 COLUMNS = ("x", "y", "z", "vx", "vy", "vz", "sxx", "syy", "szz", "sxy", "syz", "szx",
@@ -28,10 +30,13 @@ COLUMNS = ("x", "y", "z", "vx", "vy", "vz", "sxx", "syy", "szz", "sxy", "syz", "
 
 
 class Probes:
-    def __init__(self, world, probes, particles, body_names, kept=None, elements=None):
+    def __init__(self, world, probes, particles, body_names, kept=None, elements=None,
+                 exact=False):
         """``probes``: the case's output.probes; ``kept``: {name: id} of a checkpoint;
-        ``elements``: the FEM bodies (pmpm.solver.fem_bodies.FemBodies) or None."""
-        self.world, self.elements = world, elements
+        ``elements``: the FEM bodies (pmpm.solver.fem_bodies.FemBodies) or None;
+        ``exact``: sum over the ranks exactly (grid.exact_sums: the same bits on any
+        rank count, pmpm.solver.observe.exact_totals)."""
+        self.world, self.elements, self.exact = world, elements, exact
         self.names = [probe["name"] for probe in probes]
         self.bodies = [body_names.index(p["body"]) for p in probes]
         self.points = [None if p.get("point") is None else np.asarray(p["point"], np.float64)
@@ -105,9 +110,12 @@ class Probes:
         if on_nodes.any():
             self.sample_nodes(np.where(on_nodes, self.ids, -2), values)
         grouped = np.array([box is not None for box in self.regions], bool)
-        for k in np.flatnonzero(grouped):
-            self.sum_group(k, particles, values[k])
-        values = self.world.sum(values)
+        if self.exact:
+            values = self.exact_sums(particles, values, grouped)
+        else:
+            for k in np.flatnonzero(grouped):
+                self.sum_group(k, particles, values[k])
+            values = self.world.sum(values)
         values[grouped] /= np.where(values[grouped, -1:] > 0, values[grouped, -1:], np.nan)
         values[values[:, -1] == 0, :-1] = np.nan
         values[on_nodes, 6:] = np.nan
@@ -116,22 +124,39 @@ class Probes:
     def sum_group(self, k, particles, row):
         """Add this rank's part of region probe k to ``row``: the members' mass-weighted
         sums of the columns and, last, their mass."""
+        m, columns = self.group_columns(k, particles)
+        if len(m):
+            row[:columns.shape[1]] += m @ columns
+            row[-1] += m.sum()
+
+    def group_columns(self, k, particles):
+        """(mass (n,), columns (n, c)) of this rank's members of region probe k: the
+        sample's columns (an FE node's first 6: position and velocity)."""
         x0, _, mine = self.points_of(k, particles)
         members = np.flatnonzero(mine & in_box(x0, self.regions[k]))
-        if not len(members):
-            return
         if self.on_nodes[k]:
             fem = self.elements
-            m = fem.mass[members]
-            row[:6] += m @ np.hstack([fem.x[members], fem.v[members]])
-        else:
-            m = particles.mass[members]
-            stress = particles.stress[members]
-            pressure, von_mises = stress_invariants(stress)
-            row[:-1] += m @ np.hstack([particles.x[members], particles.v[members], stress,
-                                       particles.eps_p[members][:, None],
-                                       pressure[:, None], von_mises[:, None]])
-        row[-1] += m.sum()
+            return fem.mass[members], np.hstack([fem.x[members], fem.v[members]])
+        stress = particles.stress[members]
+        pressure, von_mises = stress_invariants(stress)
+        return particles.mass[members], np.hstack([
+            particles.x[members], particles.v[members], stress,
+            particles.eps_p[members][:, None], pressure[:, None], von_mises[:, None]])
+
+    def exact_sums(self, particles, values, grouped):
+        """``values`` (this rank's point samples) summed over the ranks exactly, with
+        the region probes' mass-weighted sums, each member's ``m value`` a term
+        (collective)."""
+        width = values.shape[1]
+        acc = exact_sum.zeros(values.size)
+        held = np.flatnonzero(values[:, -1] > 0)
+        for k in held:
+            exact_sum.add_rows(acc, k * width, values[k:k + 1])
+        for k in np.flatnonzero(grouped):
+            m, columns = self.group_columns(k, particles)
+            exact_sum.add_rows(acc, k * width, np.ascontiguousarray(m[:, None] * columns))
+            exact_sum.add_terms(acc, k * width + width - 1, np.ascontiguousarray(m))
+        return exact_totals(self.world, [acc])[0].reshape(values.shape)
 
     @staticmethod
     def sample_particles(particles, ids, values):

@@ -12,7 +12,7 @@ from ..io.probes import ProbeWriter
 from ..io.checkpoint import checkpoint_path
 from .errors import SolverError
 from .estimate import STEP_SLACK
-from .energy import EnergyWatch
+from .energy import EnergyWatch, LoadWork
 from .interrupt import RunInterrupted, received, signal_name
 from .memory import memory_summary
 from .probes import COLUMNS as PROBE_COLUMNS, Probes
@@ -70,7 +70,7 @@ class Runner:
                                  self.world.is_root)
         self.watch = EnergyWatch(self.output.energy_warning, self.world.is_root,
                                  fault=self.output.energy_fault)
-        self.local_load_work = 0.0
+        self.load_work = LoadWork(self.world, sim.exact)
         self.particle_steps = 0
         self.element_steps = 0
         self.step_wall = 0.0
@@ -93,7 +93,8 @@ class Runner:
         self.last_checkpoint = None
         self.restart = restart
         self.probes = Probes(self.world, self.output.probes, sim.particles, names,
-                             restart.get("probes") if restart else None, sim.elements) \
+                             restart.get("probes") if restart else None, sim.elements,
+                             sim.exact) \
             if self.output.probes else None
         if restart:
             self.restore(restart)
@@ -110,7 +111,7 @@ class Runner:
         if "body_mass0" in scalars:
             self.mass0 = np.asarray(scalars["body_mass0"], dtype=np.float64)
         if self.world.is_root:
-            self.local_load_work = self.watch.load_work
+            self.load_work.restore(self.watch.load_work, scalars.get("load_work"))
 
     # -- run ---------------------------------------------------------------------
     def run(self, compile_s=0.0, baseline_rss=0):
@@ -185,7 +186,7 @@ class Runner:
         sim = self.sim
         n = self.world.sum(sim.particles.n)
         vectors = sim.load_vectors(sim.time + 0.5 * dt)
-        power = sim.load_power(vectors) if self.config.loads else 0.0
+        power = self.load_work.power(sim, vectors) if self.config.loads else 0.0
         tick = clock.perf_counter()
         try:
             sim.advance(dt)
@@ -201,7 +202,7 @@ class Runner:
         if self.first_step_s is None:
             self.first_step_s = took
         if self.config.loads:          # the loads' work over the step (trapezoidal)
-            self.local_load_work += 0.5 * dt * (power + sim.load_power(vectors))
+            self.load_work.add_step(dt, power, self.load_work.power(sim, vectors))
 
     def after_step(self, dt):
         sim, step = self.sim, self.sim.step_count
@@ -302,7 +303,7 @@ class Runner:
         forces = log.take_row(self.sim.time) if log else None
         e["dissipated"] = log.dissipated if log else float("nan")
         self.watch.observe(self.sim.time, e, self.sim.gravitational_potential(
-            self.config.gravity), self.world.sum(self.local_load_work))
+            self.config.gravity), self.load_work.total())
         fault = self.watch.fault_line(self.sim.time)
         if fault:
             raise SolverError(self.fault_message(fault, dt, taken=True))
@@ -336,7 +337,7 @@ class Runner:
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    "body_mass0": self.mass0.tolist(),
                    "probes": self.probes.state() if self.probes else {},
-                   **sim.restart_state()}
+                   "load_work": self.load_work.state(), **sim.restart_state()}
         case = None if self.case is None else {"text": self.case_text, "case": self.case}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
                            case=case, groups=sim.checkpoint_groups())

@@ -11,6 +11,7 @@ from .contact import ContactRules
 from .decomposition import Decomposition, slab_min_width
 from .errors import SetupError
 from .fem_bodies import build_meshes
+from .observe import exact_totals
 from .levels import Hierarchy
 from .particle_bodies import ParticleBodies
 from .refine import Refiner
@@ -80,7 +81,7 @@ class Simulation:
         exact = config.grid.exact_sums
         for level in self.grids:  # windows: solver.couplings; grid-coupled FE nodes:
             level.exact = exact   # solver.fem_grid
-        self.points.exact = exact
+        self.points.exact = self.exact = exact
         self.stepper = Stepper(self.decomposition, self.grids, self.all_kinds,
                                setup.couplings, make_scheme(config.time.scheme),
                                self.refiner, m_tiny, transfers)
@@ -261,8 +262,11 @@ class Simulation:
     def energies(self):
         """Kinetic, internal (the elements' hourglass energy included) and total energy
         over all ranks and body kinds; with FEM bodies also ``hourglass`` on its own."""
-        parts = self.world.sum(np.array([kind.energies() for kind in self.all_kinds],
-                                        np.float64))          # one reduction for all
+        if self.exact:                                        # the same bits on any rank count
+            parts = exact_totals(self.world, [kind.energy_sums() for kind in self.all_kinds])
+        else:
+            parts = self.world.sum(np.array([kind.energies() for kind in self.all_kinds],
+                                            np.float64))      # one reduction for all
         kinetic = internal = hourglass = 0.0
         for k, i, h in parts:
             kinetic, internal, hourglass = kinetic + k, internal + (i + h), hourglass + h
@@ -283,12 +287,21 @@ class Simulation:
 
     def gravitational_potential(self, gravity):
         """-sum m g.x over all ranks and body kinds."""
-        parts = self.world.sum(np.array([kind.potential(gravity) for kind in self.all_kinds]))
+        if self.exact:
+            parts = [acc[0] for acc in exact_totals(
+                self.world, [kind.potential_sums(gravity) for kind in self.all_kinds])]
+        else:
+            parts = self.world.sum(np.array([kind.potential(gravity)
+                                             for kind in self.all_kinds]))
         return sum(float(part) for part in parts)
 
     def load_power(self, vectors):
         """This rank's power of the loads at ``vectors`` (particles and FE nodes)."""
         return sum(kind.load_power(vectors) for kind in self.all_kinds)
+
+    def load_power_terms(self, vectors):
+        """The same per loaded point, for exact sums (pmpm.solver.energy.LoadWork)."""
+        return np.concatenate([kind.load_power_terms(vectors) for kind in self.all_kinds])
 
     @property
     def n_elements(self):
