@@ -91,25 +91,34 @@ def test_positions_follow_the_body_velocity(dropped):
 
 class OneRank:
     """The one collective lent_inverse_mass calls, on one rank."""
+    size = 1
+
     def sum(self, value):
         return value
 
 
-def bare_motion(free, mass):
+@pytest.fixture(params=[False, True], ids=["plain_sums", "exact_sums"])
+def exact(request):
+    """Either way of summing the pairs' weights over the ranks (grid.exact_sums)."""
+    return request.param
+
+
+def bare_motion(free, mass, exact=False):
     """A RigidMotion of one body with these free axes and mass, without a case."""
     from pmpm.solver.rigid_motion import RigidMotion
     motion = RigidMotion.__new__(RigidMotion)
     motion.free, motion.mass, motion.world = np.array(free), np.array([mass]), OneRank()
+    motion.exact = exact
     return motion
 
 
-def test_a_single_pair_meets_the_whole_body_mass():
+def test_a_single_pair_meets_the_whole_body_mass(exact):
     """One particle of mass m approaching a free rigid face at relative speed u along
     its normal n leaves with the body's velocity after one inelastic impulse
     m M / (m + M) u (its share of the body's mass is all of it): the lent inverse mass
     is |P n|^2 / M."""
     from pmpm.kernels import surface_contact as ksc
-    motion = bare_motion([[False, False, True]], 3.0)
+    motion = bare_motion([[False, False, True]], 3.0, exact)
     n = np.array([[0.0, 0.6, 0.8]])
     lent = motion.lent_inverse_mass(np.array([0]), n, np.zeros((1, 4)), np.array([2.8]))
     assert lent[0] == pytest.approx(np.full(4, 0.64 / 3.0))
@@ -120,12 +129,12 @@ def test_a_single_pair_meets_the_whole_body_mass():
     assert impulse == pytest.approx(2.0 / (1.0 + 2.0 * 0.64 / 3.0) * u * n[0])
 
 
-def test_a_pair_that_cannot_move_the_body_takes_no_share_of_its_mass():
+def test_a_pair_that_cannot_move_the_body_takes_no_share_of_its_mass(exact):
     """Free in z only: a pair on a face with normal x (a wall of the body) cannot push it
     and meets it as rigid; the two pairs under it, pushing in z, share the whole mass
     (before, the wall pair's closing momentum took a third of it, and the two met only
     two thirds of the body: pushed to beyond their common velocity)."""
-    motion = bare_motion([[False, False, True]], 6.0)
+    motion = bare_motion([[False, False, True]], 6.0, exact)
     n = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
     lent = motion.lent_inverse_mass(np.zeros(3, np.int64), n, np.zeros((3, 4)),
                                     np.array([1.0, 1.0, 1.0]))
@@ -133,10 +142,10 @@ def test_a_pair_that_cannot_move_the_body_takes_no_share_of_its_mass():
     assert 1.0 / (6.0 * lent[1:, 0]) == pytest.approx([0.5, 0.5], rel=1e-12)
 
 
-def test_pairs_share_the_body_mass_by_their_closing_momentum():
+def test_pairs_share_the_body_mass_by_their_closing_momentum(exact):
     """Three pairs on one free body (two ranks' worth, summed by the world): each meets
     the share w_k / sum(w) of its mass; a pair barely closing meets almost none."""
-    motion = bare_motion([[True, True, True]], 6.0)
+    motion = bare_motion([[True, True, True]], 6.0, exact)
     n = np.tile([0.0, 0.0, 1.0], (3, 1))
     lent = motion.lent_inverse_mass(np.zeros(3, np.int64), n, np.zeros((3, 4)),
                                     np.array([1.0, 2.0, 1e-12]))
@@ -160,8 +169,9 @@ def test_refusals_name_the_key(override, message):
 def test_n_ranks_give_the_one_rank_answer():
     """Slabs along z cut the particle block in two: half its particles and all the
     weight's elements on rank 1, the other half on rank 0, whose grid sums across the
-    plane differ from 1 rank's by round-off; the body velocity is summed over all
-    ranks in particle id order (measured: bitwise equal)."""
+    plane differ from 1 rank's by round-off without exact sums; the body velocity is
+    summed over all ranks in particle id order, and the pairs' weights exactly: with
+    grid.exact_sums (auto turns it on here) the answers are bitwise equal."""
     from mpi4py import MPI
     from pmpm.comm import World
     world = World(MPI.COMM_WORLD)
@@ -169,12 +179,13 @@ def test_n_ranks_give_the_one_rank_answer():
     sims = {"n": simulation(overrides, world), "one": simulation(overrides)}
     for sim in sims.values():
         run(sim, END)
+    assert sims["one"].config.grid.exact_sums
     v_n = sims["n"].elements.rigid_motion.velocity
     v_1 = sims["one"].elements.rigid_motion.velocity
-    assert np.abs(v_n - v_1).max() < 1e-12
+    assert (v_n == v_1).all()
     p_n, p_1 = momentum(sims["n"], world), momentum(sims["one"])
     assert np.abs(p_n - p_1).max() < 1e-11
     ids = np.concatenate(world.allgather(sims["n"].particles.id))
     x = np.concatenate(world.allgather(sims["n"].particles.x))[np.argsort(ids)]
     one = sims["one"].particles
-    assert np.abs(x - one.x[np.argsort(one.id)]).max() < 1e-10
+    assert (x == one.x[np.argsort(one.id)]).all()

@@ -268,10 +268,11 @@ def test_a_node_without_a_free_rigid_body_gives_it_nothing():
 @pytest.mark.parametrize("case, end, axis", [(ON_BLOCK, END, "x"),
                                               (ON_PLATE, PLATE_END, "x")])
 def test_n_ranks_give_the_one_rank_answer(case, end, axis):
-    """Slabs along x cut both bodies and the contact patch: the contact nodes' plane
-    sums differ from 1 rank's by round-off, and each rank adds the impulses of the
-    nodes it counts; the ranks' sums are added in rank order, so every rank moves the
-    weight alike."""
+    """Slabs along x cut both bodies and the contact patch; each rank adds the impulses
+    of the nodes it counts. With exact sums (auto turns them on here) the nodes' values
+    are the 1-rank bits and the impulses are added exactly over the ranks, so the body's
+    velocity and every particle's position are bitwise the 1-rank answer (without, the
+    ranks' sums are added in rank order: round-off apart, every rank alike)."""
     from mpi4py import MPI
     from pmpm.comm import World
     world = World(MPI.COMM_WORLD)
@@ -279,13 +280,14 @@ def test_n_ranks_give_the_one_rank_answer(case, end, axis):
     sims = {"n": simulation(case, overrides, world), "one": simulation(case, overrides)}
     for sim in sims.values():
         run(sim, end)
+    assert sims["one"].config.grid.exact_sums
     v_n = sims["n"].rigid_particles.velocity
     v_1 = sims["one"].rigid_particles.velocity
     assert (np.concatenate(world.allgather(v_n[None])) == v_n).all()   # every rank alike
-    assert np.abs(v_n - v_1).max() < 1e-12
+    assert (v_n == v_1).all()
     p_n, p_1 = momentum(sims["n"], world), momentum(sims["one"])
     assert np.abs(p_n - p_1).max() < 1e-11
     ids = np.concatenate(world.allgather(sims["n"].particles.id))
     x = np.concatenate(world.allgather(sims["n"].particles.x))[np.argsort(ids)]
     one = sims["one"].particles
-    assert np.abs(x - one.x[np.argsort(one.id)]).max() < 1e-10
+    assert (x == one.x[np.argsort(one.id)]).all()

@@ -202,7 +202,8 @@ def _body_impulse(cnodal, cvel, cforce, cnew, s, b, mr, share, code, dt, own, im
 @njit(cache=True)
 def rigid_partner_impulses(slots, real_mass, share, body_rigid, free, codes, counted,
                            per_plane, dt, out):
-    """Add to ``out[r]`` (n_bodies, 3) the impulse grid contact gave the other bodies
+    """Add to ``out[r]`` (n_bodies, 3; or an exact accumulator of that shape,
+    pmpm.kernels.exact_sum) the impulse grid contact gave the other bodies
     at the contact nodes this rank counts where the rigid body r has mass, for the
     bodies r that ``free`` marks (free rigid particle bodies, pmpm.solver.
     rigid_particles). A node that rigid bodies reach takes their velocity (their
@@ -241,7 +242,7 @@ def rigid_partner_impulses(slots, real_mass, share, body_rigid, free, codes, cou
             if free[r] and body_rigid[r] and cnodal[s, r, 0] > 0.0:
                 weight = cnodal[s, r, 0] / rigid_mass
                 for d in range(3):
-                    out[r, d] += weight * total[d]
+                    put2(out, r, d, weight * total[d])
 
 
 @njit(cache=True, inline="always")

@@ -183,7 +183,7 @@ def warm_up_forces(block, pairs, gvel, gnew, slots=None, free_rigid=False, exact
     the free rigid particle bodies' partners, pmpm.solver.rigid_particles); with
     ``exact`` also into exact accumulators."""
     for exact_sums in sums_variants(exact):
-        warm_up_force_sums(block, pairs, gvel, gnew, slots, free_rigid and not exact_sums,
+        warm_up_force_sums(block, pairs, gvel, gnew, slots, free_rigid and exact_sums == exact,
                            exact_sums)
 
 
@@ -210,7 +210,8 @@ def warm_up_force_sums(block, pairs, gvel, gnew, slots, free_rigid, exact_sums):
                             1e-3, 1e-12, slave, sums_like((nb, nb, forces.PAIR_WIDTH), exact_sums))
     if free_rigid:
         forces.rigid_partner_impulses(slots, real_mass, share, rigid, rigid.copy(),
-                                      block.faces, counted, n, 1e-3, np.zeros((nb, 3)))
+                                      block.faces, counted, n, 1e-3,
+                                      sums_like((nb, 3), exact_sums))
 
 
 def warm_up_couplings(pts, geo, block, pairs, mat, bodies, grids, contact_state, kinds,

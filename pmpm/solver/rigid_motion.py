@@ -36,6 +36,9 @@ same on every rank and on any rank count.
 """
 import numpy as np
 
+from ..kernels import exact_sum
+from .observe import exact_totals
+
 
 class RigidMotion:
     """The free rigid FEM bodies of a run.
@@ -52,6 +55,7 @@ class RigidMotion:
         nb = len(config.bodies)
         self.free = free_axes(config, "fem")
         self.gravity = np.asarray(config.gravity, np.float64)
+        self.exact = bool(config.grid.exact_sums)
         self.mass = self.body_masses(elements, nb)
         self.velocity = self.body_velocities(elements, nb)
 
@@ -114,9 +118,7 @@ class RigidMotion:
         free_n = np.where(self.free[bodies], normals, 0.0)
         along = np.einsum("kd,kd->k", free_n, free_n)
         weight = np.where(on, closing * along, 0.0)
-        total = np.zeros(len(self.mass))
-        np.add.at(total, bodies[on], weight[on])
-        total = self.world.sum(total)
+        total = self.weight_totals(bodies[on], weight[on])
         if not on.any():
             return lent
         mass = np.where(self.mass > 0, self.mass, 1.0)[bodies]
@@ -125,6 +127,19 @@ class RigidMotion:
         out = lent.copy()
         out[on] = inverse[on, None]
         return out
+
+    def weight_totals(self, bodies, weight):
+        """(nb,) W_b, the sums of ``weight`` per body over all ranks (collective):
+        exactly rounded with exact sums, the same bits on any rank count (the pairs'
+        weights are), else each rank's sums added by one reduction."""
+        if self.exact:
+            acc = exact_sum.zeros(len(self.mass))
+            for b in np.unique(bodies):
+                exact_sum.add_terms(acc, b, weight[bodies == b])
+            return exact_totals(self.world, [acc])[0]
+        total = np.zeros(len(self.mass))
+        np.add.at(total, bodies, weight)
+        return self.world.sum(total)
 
     def take_impulses(self, elements, bodies, ids, impulses, dt):
         """V_b += P (sum over all ranks' pairs on b, in particle id order, of their

@@ -32,17 +32,22 @@ whose FE nodes are then the partners. The grid's faces do not hold a free rigid 
 and two rigid bodies do not meet (their nodes take their mean velocity).
 
 MPI: each rank adds the impulses of the contact nodes it counts (a shared slab plane by
-the lower rank); the ranks' sums are gathered and added in rank order, so every rank
-moves the body alike; 1 rank and N differ by the round-off of the plane sums. M_b is
-summed over all ranks in particle id order. A restart reads V_b back from the particles'
+the lower rank). With exact sums (``grid.exact_sums``, on by default where bodies meet)
+the nodes' values are the same bits on any rank count and each rank adds their impulses
+into an exact accumulator (pmpm.kernels.exact_sum) whose bins are summed over the ranks,
+so J_b, and the body's motion, are the same bits on 1 and N ranks; without, the ranks'
+float sums are gathered and added in rank order, so every rank moves the body alike and
+1 rank and N differ by round-off. M_b is summed over all ranks in particle id order. A restart reads V_b back from the particles'
 velocities, which the checkpoint keeps.
 """
 import numpy as np
 
+from ..kernels import exact_sum
 from ..kernels import forces as kf
 from .contact import start_shares
 from .couplings import Coupling
 from .forces import counted_planes
+from .observe import exact_totals
 from .rigid_motion import free_axes, gathered
 
 
@@ -64,6 +69,7 @@ class FreeRigidParticles(Coupling):
         self.grid_rigid = np.asarray(points.bodies.grid_rigid, bool)
         self.share = np.asarray(start_shares(config), np.float64)
         self.gravity = np.asarray(config.gravity, np.float64)
+        self.exact = bool(config.grid.exact_sums)
         self.mass = self.body_masses()
         self.velocity = self.body_velocities()
 
@@ -106,8 +112,10 @@ class FreeRigidParticles(Coupling):
         self.set_particles()
 
     def partner_impulses(self, grids, dt):
-        """(nb, 3) J_b over all levels and ranks, the ranks' sums added in rank order."""
-        local = np.zeros((len(self.bodies), 3))
+        """(nb, 3) J_b over all levels and ranks: exactly rounded with exact sums, else
+        the ranks' sums added in rank order."""
+        shape = (len(self.bodies), 3)
+        local = exact_sum.zeros(shape) if self.exact else np.zeros(shape)
         for s in grids:
             f = self.contact.fields[s.index]
             if f.n_slots:
@@ -115,6 +123,8 @@ class FreeRigidParticles(Coupling):
                 kf.rigid_partner_impulses(f.slots(), f.real_mass, self.share,
                                           self.grid_rigid, self.bodies, s.nodes.faces,
                                           counted, per_plane, dt, local)
+        if self.exact:
+            return exact_totals(self.world, [local])[0]
         (parts,) = gathered(self.world, (local[None],))
         total = np.zeros_like(local)
         for part in parts:
