@@ -107,18 +107,30 @@ WINDOW_BALL = ["params.cell=2", "params.plate_radius=16", "params.cells_below=6"
                "params.ratio=2", "params.window=8", "params.window_below=4"]
 
 
-def test_exact_sums_stay_off_for_windows_with_bspline_shapes():
-    """Refined windows with the bspline shapes are not exact yet (2 ranks part from 1 by
-    2e-3 mm on this case): `auto` keeps them off there, `true` is refused by its key."""
+def test_auto_turns_exact_sums_on_for_windows_with_every_shape():
+    """The steel ball in a window with contact: ``auto`` is on with the bspline shapes as
+    with gimp, and ``true`` is accepted (tests/test_exact_sums_mpi.py: 2 ranks give the
+    1-rank answer to the bit)."""
     import os
 
-    from pmpm.case.errors import CaseError
     from pmpm.case.loader import load_config
     case = os.path.join(os.path.dirname(__file__), "..", "runs", "steel_ball_plate.yaml")
-    on = load_config(case, WINDOW_BALL + ["grid.shape_functions=gimp"], check_geometry=False)
-    off = load_config(case, WINDOW_BALL + ["grid.shape_functions=bspline"],
-                      check_geometry=False)
-    assert on.grid.exact_sums and not off.grid.exact_sums
-    with pytest.raises(CaseError, match="grid.exact_sums"):
-        load_config(case, WINDOW_BALL + ["grid.shape_functions=bspline",
-                                         "grid.exact_sums=true"], check_geometry=False)
+    for shape in ("gimp", "bspline"):
+        for value in ("auto", "true"):
+            config = load_config(case, WINDOW_BALL + [f"grid.shape_functions={shape}",
+                                                      f"grid.exact_sums={value}"],
+                                 check_geometry=False)
+            assert config.grid.exact_sums, (shape, value)
+
+
+@pytest.mark.parametrize("halo", [0, 1])
+def test_a_slab_without_cells_of_the_range_gets_no_block(halo):
+    """The particles end two cells below the slab plane: the rank above gets no node (not
+    the halo's planes, which the rank below holds complete without sharing them: an
+    inner slave of a window read its empty copy there), the rank below no shared plane."""
+    slabs = Slabs(2, [0, 7, 13])
+    lo, hi = np.zeros(3, np.int64), np.array([3, 3, 5])
+    below, above = (LocalBlock.for_rank(slabs, r, lo, hi, 1, halo) for r in range(2))
+    assert below.lo[2] == -halo and below.shape[2] == 7 + 2 * halo
+    assert below.shared_planes == [] and above.shared_planes == []
+    assert above.n_nodes == 0

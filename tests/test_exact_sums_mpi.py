@@ -181,6 +181,34 @@ def test_a_window_that_follows_a_body_across_the_slab_plane_is_exact():
     assert not np.array_equal(plain[2], plain_one[2])
 
 
+#: the steel ball in a window over the plate (the sets of
+#: tests/test_shape_functions.py::test_tied_window_with_contact_matches_one_rank): the
+#: plate's coarse particles end two cells below the slab plane, so only the rank below
+#: holds the coarse nodes of the window's inner slaves there, which both ranks' window
+#: blocks hold; and window_follow: the window crosses the slab plane
+BSPLINE_WINDOWS = {
+    "ball": (os.path.join(RUNS, "steel_ball_plate.yaml"),
+             ["params.cell=2", "params.plate_radius=16", "params.cells_below=6",
+              "params.ratio=2", "params.window=8", "params.window_below=4"], 100),
+    "follow": (FOLLOW, [], 300),
+}
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.parametrize("name", sorted(BSPLINE_WINDOWS))
+def test_windows_with_the_bspline_shapes_are_exact(name):
+    """The 27-node shapes: window nodes beyond the faces tied, inner slaves (auto turns
+    the sums on: contact method 2)."""
+    world = comm_world()
+    case, sets, steps = BSPLINE_WINDOWS[name]
+    sets = sets + ["grid.shape_functions=bspline"]
+    many, got, _ = windowed(case, sets, steps, world)
+    _, expected, _ = windowed(case, sets, steps)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    assert world.sum(many.grids.windows[0].inner.count) > 0
+
+
 BOUNCE = os.path.join(os.path.dirname(RUNS), "tests", "cases", "fem_grid_bounce.yaml")
 
 

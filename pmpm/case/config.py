@@ -392,15 +392,6 @@ def exact_sums_on(case):
     value = case["grid"].get("exact_sums", "auto")
     if value != "auto":
         return bool(value)
-    if exact_sums_unsupported(case["grid"]):
-        return False
     bodies = case["bodies"]
     fem = any(body.get("method") == "fem" for body in bodies)
     return len(bodies) > 1 and (case["contact"].get("method", 0) > 0 or fem)
-
-
-def exact_sums_unsupported(grid):
-    """Refined windows with the bspline shapes: their exact sums part from one rank on 2
-    ranks (the steel ball in a window, 2.3e-3 mm at 0.02 ms; linear and gimp are bitwise
-    equal), so ``auto`` keeps the array-order sums there and ``true`` is refused."""
-    return bool(grid.get("windows")) and grid.get("shape_functions") == "bspline"

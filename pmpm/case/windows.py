@@ -38,10 +38,6 @@ def check_windows(grid, path, problems):
     windows = grid.get("windows", [])
     if windows is INVALID or not valid(grid, "min", "max", "cell"):
         return
-    if windows and grid.get("exact_sums") is True and grid.get("shape_functions") == "bspline":
-        problems.add(join(path, "exact_sums"), "true is not yet exact with refined windows "
-                     "and bspline shape functions (2 ranks part from 1); use gimp or "
-                     "linear, or leave it auto (then off here)")
     placed = []
     for i, window in enumerate(windows):
         if valid(window, "min", "max"):

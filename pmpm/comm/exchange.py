@@ -93,6 +93,36 @@ def continue_shared_planes(world, planes, block, add_lower):
     _pass_planes(world, block, below, above, 74)        # the complete sums come down
 
 
+def take_marked_planes(world, planes, block, marked):
+    """Complete terms on the shared slab planes that not every rank holding a node could
+    add: where the neighbour added its term to a node (``marked``) and this rank did
+    not, this rank takes the neighbour's copy; where both did, the copies are alike.
+    One message of the planes and their marks per neighbour.
+
+    Parameters
+    ----------
+    world : World
+    planes : sequence of (neighbour_rank, (first, stop)), as for ``sum_shared_planes``
+    block : ndarray (n_axis, n1, n2, c), the nodal array with the slab axis first
+    marked : ndarray (n_axis, n1, n2), nonzero where this rank added the term
+    """
+    if not planes:
+        return
+    packed = {span: np.concatenate([block[span[0]:span[1]],
+                                    (marked[span[0]:span[1]] != 0)[..., None]], axis=-1)
+              for _, span in planes}
+    _combine_shared_planes(world, planes, packed, _take_marked)
+    for _, span in planes:
+        block[span[0]:span[1]] = packed[span][..., :-1]
+
+
+def _take_marked(own, incoming, out):
+    """``out`` = ``incoming`` at the nodes the neighbour marked (last column) and this
+    rank did not; ``own`` elsewhere."""
+    take = (incoming[..., -1] > 0) & (own[..., -1] == 0)
+    out[take] = incoming[take]
+
+
 def _pass_planes(world, block, senders, receivers, tag):
     """Send ``block``'s planes of the spans ``senders`` to their neighbours and replace
     those of ``receivers`` by the neighbours' copies."""

@@ -98,10 +98,15 @@ class LocalBlock:
         hi = np.array(cell_max, dtype=np.int64) + 1          # last node index, inclusive
         lo[a], hi[a] = max(first, cell_min[a]), min(last, cell_max[a] + 1)
         planes = []
+        shape = hi - lo + 1 + 2 * halo
         if lo[a] <= hi[a]:
             span = int(hi[a] - lo[a]) + 2 * halo
             if rank > 0 and lo[a] == first:
                 planes.append((rank - 1, (0, 2 * halo + 1)))
             if rank < slabs.size - 1 and hi[a] == last:
                 planes.append((rank + 1, (span - 2 * halo, span + 1)))
-        return cls(lo - halo, hi - lo + 1 + 2 * halo, a, planes)
+        else:
+            # the slab holds no node of the range: no block, not the halo's planes
+            # alone (a neighbour holds those nodes, complete, without sharing them)
+            shape[a] = 0
+        return cls(lo - halo, shape, a, planes)

@@ -67,13 +67,12 @@ def children_of(particles, parents, n, id_base, id_stride):
 
 def split(particles, parents, factors, id_base, id_stride):
     """Replace each particle ``parents[i]`` by ``factors[i]^3`` children (factors >= 2):
-    the first child takes the parent's row, the others go to the end of the store (one
-    copy of the store per call). Returns how many particles were added."""
+    the first child takes the parent's row; returns the columns (name -> array, every
+    column of the store) of the others, for the caller to append as it appends any
+    particles it is handed (``ParticleBodies.add_particles``)."""
     parents = np.asarray(parents, np.int64)
     factors = np.asarray(factors, np.int64)
-    if len(parents) == 0:
-        return 0
-    rest = {name: [] for name in particles.COLUMNS}
+    rest = {name: [getattr(particles, name)[:0]] for name in particles.COLUMNS}
     for n in np.unique(factors):
         group = parents[factors == n]
         children = children_of(particles, group, int(n), id_base, id_stride)
@@ -81,6 +80,4 @@ def split(particles, parents, factors, id_base, id_stride):
         for name, column in children.items():
             getattr(particles, name)[group] = column[first]
             rest[name].append(np.delete(column, first, axis=0))
-    extra = {name: np.concatenate(parts) for name, parts in rest.items()}
-    particles.append(extra)
-    return len(extra["mass"])
+    return {name: np.concatenate(parts) for name, parts in rest.items()}

@@ -16,7 +16,7 @@ the simulation builds them from the registry (``pmpm.solver.registry``).
 """
 import numpy as np
 
-from ..comm.exchange import continue_shared_planes, or_shared_planes
+from ..comm.exchange import continue_shared_planes, or_shared_planes, take_marked_planes
 from ..kernels import tied
 from ..kernels.records import TieSet
 
@@ -71,8 +71,9 @@ class TiedInterface(Coupling):
     rank that owns a slave's node plane adds its term, the rank below first, and the
     masters on a slab plane are passed on from the rank below to the rank above and
     back (``continue_shared_planes``), so every rank count adds the same terms in the
-    same order as one rank. An inner slave's coarse value is then complete too, and
-    every rank holding its window node adds it alike.
+    same order as one rank. An inner slave's coarse value is then complete too: every
+    rank holding it and its window node adds it alike, and a rank that holds the window
+    node on a shared plane without the coarse node takes the neighbour's copy.
     """
 
     def __init__(self, world):
@@ -123,6 +124,20 @@ class TiedInterface(Coupling):
                                lambda: add(np.array(lower, np.int64)))
         for w in grids.windows:
             tied.slaves_to_masters(w.inner, target, getattr(w, name))
+            if w.level.halo:
+                self.share_inner_terms(w, getattr(w, name))
+
+    def share_inner_terms(self, window, array):
+        """Give the inner slaves' terms to every rank holding their window nodes: a rank
+        may hold a window node on a shared plane without the coarse node (a coarse node
+        that only the rank below reaches, through the shapes' halo), and then takes the
+        copy of the neighbour that added the term."""
+        b = window.block
+        marked = window.work.empty("inner_marked", b.n_nodes, 1, np.int8)[:, 0]
+        marked.fill(0)
+        marked[window.inner.masters[:window.inner.count, 0]] = 1
+        flat = array.reshape(b.n_nodes, -1)
+        take_marked_planes(self.world, b.shared_planes, b.as_planes(flat), b.as_planes(marked))
 
     def occupied_nodes(self, coarse, kinds):
         b = coarse.block

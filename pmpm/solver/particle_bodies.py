@@ -273,7 +273,8 @@ class ParticleBodies(BodyKind):
     # -- particles from elsewhere -------------------------------------------------------
     def add_particles(self, columns):
         """Take particles that another body kind hands over in a step (a transfer,
-        pmpm.solver.transfer; ``columns``: name -> array, every column of the store):
+        pmpm.solver.transfer) or that splitting makes (:meth:`split_entering`;
+        ``columns``: name -> array, every column of the store):
         appended at the end of the store; the next step gives them their grid levels,
         and the end of this one their ranks, like the others. Returns how many."""
         self.particles.append(columns)
@@ -302,7 +303,7 @@ class ParticleBodies(BodyKind):
         factors = ratios[self.level_of] // p.refine
         parents = np.flatnonzero(factors >= 2)
         if len(parents):
-            split(p, parents, factors[parents], id_base, id_stride)
+            self.add_particles(split(p, parents, factors[parents], id_base, id_stride))
 
     def layer_moments(self, body, grid, axis):
         """Per coarse cell layer along the slab ``axis``, (n_layers, 4): sum m x and sum
