@@ -119,3 +119,87 @@ def test_column_tables_are_checked():
         column_table([("a", np.float64, 1), ("a", np.float64, 1)])
     with pytest.raises(TypeError):
         type("Bad", (ColumnStore,), {"COLUMNS": {"n": (np.float64, 1)}})
+
+
+def spliced_copy(columns, keep, before=None, after=None):
+    """What take(keep, before, after) must give, column by column, from plain copies."""
+    out = {}
+    for name, column in columns.items():
+        parts = [] if before is None else [np.asarray(before[name])]
+        parts.append(column[keep])
+        parts += [] if after is None else [np.asarray(after[name])]
+        out[name] = np.concatenate(parts).astype(column.dtype)
+    return out
+
+
+def assert_same_rows(store, expected):
+    for name, column in store.columns().items():
+        assert column.flags.c_contiguous, name
+        np.testing.assert_array_equal(column, expected[name], err_msg=name)
+
+
+def test_migration_steps_move_rows_in_place_and_keep_the_order():
+    """Rows leaving near either end and in the middle, arrivals before and after, appends
+    and a sort in between: every column as a fresh copy would have it, and, once the
+    store has its spare rows, the steps that keep rows in order reuse the buffers."""
+    rng = np.random.default_rng(4)
+    p, source = numbered(400), numbered(300)
+    source.replace_column("id", source.id + 10_000)
+    for step in range(30):
+        n = p.n
+        keep = np.ones(n, bool)
+        keep[rng.choice(np.r_[0:8, n - 8:n], 3, replace=False)] = False
+        if step % 5 == 4:
+            keep[rng.integers(0, n)] = False                      # one from the middle
+        arrivals = source.rows(rng.integers(0, source.n, rng.integers(0, 6)))
+        lower = rng.integers(0, len(arrivals) + 1)
+        expected = spliced_copy({k: v.copy() for k, v in p.columns().items()}, keep,
+                                arrivals[:lower], arrivals[lower:])
+        x_before = p.x
+        p.take(keep, before=arrivals[:lower], after=arrivals[lower:])
+        assert_same_rows(p, expected)
+        if step > 0:
+            assert np.shares_memory(p.x, x_before) and p.x is not x_before
+        if step == 12:
+            extra = numbered(5).columns()
+            expected = spliced_copy(p.columns(), np.arange(p.n), after=extra)
+            p.append(extra)
+            assert_same_rows(p, expected)
+        if step == 20:                                    # a sort: a fresh copy
+            order = np.argsort(-p.id, kind="stable")
+            expected = spliced_copy(p.columns(), order)
+            x_before = p.x
+            p.take(order)
+            assert_same_rows(p, expected)
+            assert not np.shares_memory(p.x, x_before)
+
+
+def test_a_replaced_column_is_never_written_in_place():
+    """A column set from outside (replace_column keeps the caller's array where it has
+    the right type) is copied, not overwritten, by the next take."""
+    p = numbered(200)
+    p.take(np.arange(1, 200))                                    # now in spare-row buffers
+    mine = np.arange(p.n, dtype=np.float64)
+    p.replace_column("mass", mine)
+    p.take(np.r_[1:p.n], after=numbered(2).columns())
+    assert mine.tolist() == list(range(199)) and p.mass.tolist() == list(range(1, 199)) + [0, 100]
+    assert p.id.tolist() == [100 * i for i in range(2, 200)] + [0, 100]
+
+
+def test_arrivals_that_are_views_of_the_store_itself():
+    p = numbered(100)
+    p.take(np.arange(100))
+    own = {name: column[:3] for name, column in p.columns().items()}
+    expected = spliced_copy(p.columns(), np.arange(3, 100), own, own)
+    p.take(np.arange(3, 100), before=own, after=own)
+    assert_same_rows(p, expected)
+
+
+def test_spare_rows_do_not_outgrow_the_store():
+    """A store that loses most of its rows (a rebalance) gets buffers of its new size."""
+    from pmpm.particles.columns import spare_rows
+    p = numbered(5000)
+    p.take(np.arange(5000))
+    p.take(np.arange(4000, 5000))
+    assert p._buffers.capacity <= p.n + 4 * spare_rows(p.n)
+    assert p.id.tolist() == [100 * i for i in range(4000, 5000)]
