@@ -42,7 +42,10 @@ record("complete_forces", "force")
 
 def on_global_grid(sim, comm, name):
     """The coarse array ``name`` on global node indices (+2 offset), gathered to rank 0
-    (NaN where no rank holds the node)."""
+    (NaN where no rank holds the node). A node two ranks hold takes the lower rank's
+    copy (the shared plane's owner); where the copies differ (a halo plane a rank holds
+    but does not complete) a line says on how many nodes, so that a copy's difference
+    is not read as the grid's."""
     block, values = RECORDED[id(sim.stepper)][name]
     n = sim.grid.n_cells + 5
     full = np.full((*n, values.shape[1]), np.nan)
@@ -53,9 +56,15 @@ def on_global_grid(sim, comm, name):
     if comm.rank:
         return None
     out = np.full_like(full, np.nan)
-    for part in parts:
+    for rank, part in enumerate(parts):
         have = ~np.isnan(part)
-        out[have] = part[have]
+        taken = have & ~np.isnan(out)
+        differ = (taken & (part != out)).any(axis=-1).sum()
+        if differ:
+            print(f"{name}: rank {rank}'s copy differs from a lower rank's on {differ} nodes"
+                  " (the lower rank's is kept)")
+        new = have & np.isnan(out)
+        out[new] = part[new]
     return out
 
 
