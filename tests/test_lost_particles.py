@@ -70,3 +70,20 @@ def test_a_restart_keeps_the_count_and_the_initial_mass(tmp_path):
     assert bar["lost_particles"] >= 2 * FIRST_LAYER   # the second layer followed
     assert summary(out)["particles_lost"] == bar["lost_particles"]
     assert bar["mass"] + bar["lost_mass"] == pytest.approx(BAR_MASS, rel=1e-12)
+
+
+def test_with_exact_sums_the_lost_mass_is_the_same_bits_on_two_ranks(tmp_path):
+    """The lost mass decides the grid.lost_mass_fraction fault; with grid.exact_sums it
+    is summed exactly over the ranks, so a cut across the lost layer (x) gives the
+    1-rank bits."""
+    masses = []
+    for ranks in (1, 2):
+        out = tmp_path / f"out{ranks}"
+        done = pmpm([BAR, "--out", out, "--quiet", *FREE_FLOOR, "--set",
+                     "grid.lost_mass_fraction=0.1", "--set", "grid.exact_sums=true",
+                     "--set", "decomposition.axis=x"], ranks)
+        assert done.returncode == 0, done.stderr
+        bar = summary(out)["bodies"]["bar"]
+        assert bar["lost_particles"] == FIRST_LAYER
+        masses.append(bar["lost_mass"])
+    assert masses[0] == masses[1]

@@ -5,9 +5,11 @@ import numpy as np
 
 from ..comm import migrate_store
 from ..comm.slabs import Slabs, balanced_bounds
+from ..kernels import exact_sum
 from ..kernels.shape import HALO
 from .errors import SolverError
 from .levels import cell_ranges
+from .observe import exact_totals
 
 
 class Decomposition:
@@ -22,9 +24,12 @@ class Decomposition:
     windows : list of grid.Window
     n_bodies : int
         Number of bodies, for the per-body count and mass of the points that left.
+    exact : bool
+        ``grid.exact_sums``: the lost mass summed exactly over the ranks (it decides
+        the ``grid.lost_mass_fraction`` fault, so it must not depend on the rank count).
     """
 
-    def __init__(self, world, grid, slabs, grids, windows, n_bodies=1):
+    def __init__(self, world, grid, slabs, grids, windows, n_bodies=1, exact=False):
         self.world, self.grid, self.slabs = world, grid, slabs
         self.grids, self.windows = grids, windows
         #: the narrowest slab (cells): 3 for the 27-node shapes (comm.slabs.balanced_bounds)
@@ -36,6 +41,7 @@ class Decomposition:
         self.lost = 0
         self.lost_count = np.zeros(n_bodies)   # per body, over all ranks
         self.lost_mass = np.zeros(n_bodies)
+        self.exact = bool(exact)
 
     def assign_levels(self, kinds):
         for kind in kinds:
@@ -81,14 +87,20 @@ class Decomposition:
         return glob[0]
 
     def count_lost(self, points, gone):
-        """Add the count and mass, per body, of the ``gone`` points (collective)."""
+        """Add the count and mass, per body, of the ``gone`` points (collective; the
+        mass exactly rounded with exact sums, so the same bits on any rank count)."""
         nb = len(self.lost_count)
-        body = points.body[gone]
-        local = np.concatenate([np.bincount(body, minlength=nb)[:nb].astype(np.float64),
-                                np.bincount(body, points.mass[gone], minlength=nb)[:nb]])
-        total = self.world.sum(local)
-        self.lost_count += total[:nb]
-        self.lost_mass += total[nb:]
+        body, mass = points.body[gone], points.mass[gone]
+        counts = self.world.sum(np.bincount(body, minlength=nb)[:nb].astype(np.float64))
+        if self.exact:
+            acc = exact_sum.zeros(nb)
+            for b in np.unique(body[body < nb]):
+                exact_sum.add_terms(acc, b, mass[body == b])
+            lost = exact_totals(self.world, [acc])[0]
+        else:
+            lost = self.world.sum(np.bincount(body, mass, minlength=nb)[:nb])
+        self.lost_count += counts
+        self.lost_mass += lost
 
     def send_to_owners(self, kinds):
         for kind in kinds:

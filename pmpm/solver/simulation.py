@@ -59,7 +59,7 @@ class Simulation:
                                      config.time.transfer)
         self.kinds = [self.points]
         self.decomposition = Decomposition(world, grid, slabs, self.grids, self.windows,
-                                           len(bodies.names))
+                                           len(bodies.names), config.grid.exact_sums)
         rules = ContactRules(config.contact, bodies,
                              [b.is_fem for b in config.bodies])
         setup = Setup(world, config, grid, bodies, self.points, elements, self.decomposition,
