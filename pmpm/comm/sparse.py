@@ -24,6 +24,10 @@ import numpy as np
 #: one before it: two tags would do; a few more cost nothing.
 TAG_BASE, TAG_CYCLE = 20000, 4
 ALIGN = 16
+#: the tag of :func:`reply_arrays`: its messages go to known ranks, each received by
+#: source in the order sent (MPI keeps the order of messages between two ranks on one
+#: tag), so one tag serves every call
+REPLY_TAG = TAG_BASE + TAG_CYCLE
 
 
 def exchange_arrays(world, packages):
@@ -63,6 +67,65 @@ def exchange_arrays(world, packages):
     out = []
     for r in range(world.size):
         arrays = unpack(received[r]) if r in received else empty
+        out.append(own if r == world.rank else
+                   dict(zip(keys, arrays)) if keys is not None else arrays)
+    return out
+
+
+def senders(packages, own_rank):
+    """The ranks whose package in a list returned by :func:`exchange_arrays` was sent
+    (has an element), this rank excluded: every rank knows after the exchange who sent
+    to it, and whom it sent to (:func:`sent_to`), without another message."""
+    return [r for r, p in enumerate(packages) if r != own_rank and not is_empty(
+        fields(p, list(p) if isinstance(p, dict) else None))]
+
+
+def sent_to(packages, own_rank):
+    """The ranks :func:`exchange_arrays` sends ``packages`` to (those not empty)."""
+    return [r for r, p in enumerate(packages) if r != own_rank and p is not None
+            and not is_empty(fields(p, list(p) if isinstance(p, dict) else None))]
+
+
+def reply_arrays(world, replies, askers, asked):
+    """The answers of an exchange whose partners are known from the one before it (a
+    question answered: pmpm.solver.contact_sums): send ``replies[r]`` to each rank r of
+    ``askers`` (those that sent here), receive one package from each rank of ``asked``
+    (those this rank sent to). No NBX barrier, and nothing at all where nobody asked:
+    each side knows whom to wait for. Every rank must answer every asker, and answer
+    with a package even if it has no rows (the asker waits for it).
+
+    Parameters
+    ----------
+    replies : list of world.size packages (as for :func:`exchange_arrays`); those of
+        ranks not in ``askers`` are not sent, ``replies[world.rank]`` is returned as is
+        and is the template of the zero-row packages of the ranks not in ``asked``.
+    askers, asked : lists of ranks, this rank excluded
+
+    Returns
+    -------
+    list of world.size packages, by source rank, as :func:`exchange_arrays` returns.
+    """
+    own = replies[world.rank]
+    if world.size == 1:
+        return [own]
+    from mpi4py import MPI
+    keys = list(own) if isinstance(own, dict) else None
+    comm = world.raw
+    buffers = {r: pack(fields(replies[r], keys)) for r in askers}
+    sends = [comm.Isend([buf, MPI.BYTE], dest=r, tag=REPLY_TAG)
+             for r, buf in buffers.items()]
+    world.traffic.note("neighbour", sum(b.nbytes for b in buffers.values()), len(buffers))
+    received, status = {}, MPI.Status()
+    for r in asked:
+        comm.Probe(source=r, tag=REPLY_TAG, status=status)
+        buf = np.empty(status.Get_count(MPI.BYTE), np.uint8)
+        comm.Recv([buf, MPI.BYTE], source=r, tag=REPLY_TAG)
+        received[r] = unpack(buf)
+    MPI.Request.Waitall(sends)
+    empty = zero_rows(fields(own, keys))
+    out = []
+    for r in range(world.size):
+        arrays = received.get(r, empty)
         out.append(own if r == world.rank else
                    dict(zip(keys, arrays)) if keys is not None else arrays)
     return out
