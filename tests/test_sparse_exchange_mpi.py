@@ -163,7 +163,7 @@ def test_replies_go_to_the_askers_without_a_barrier():
     rounds nobody asks): each rank answers exactly the ranks that asked it, with the
     question's rows doubled, and gets back the answers of the ranks it asked; no
     collective is counted for the answers, and no message where nobody asked."""
-    from pmpm.comm.sparse import reply_arrays, sent_to, senders
+    from pmpm.comm.sparse import exchange_known, sent_to, senders
     world = comm_world()
     me, n = world.rank, world.size
     for k in range(40):
@@ -176,7 +176,7 @@ def test_replies_go_to_the_askers_without_a_barrier():
         assert askers == [s for s in range(n) if s != me and rows[s, me] > 0]
         assert sent_to(questions, me) == [d for d in range(n) if d != me and rows[me, d] > 0]
         world.traffic.reset()
-        back = reply_arrays(world, [(a[0], 2.0 * a[1]) for a in asks], askers,
+        back = exchange_known(world, [(a[0], 2.0 * a[1]) for a in asks], askers,
                             sent_to(questions, me))
         assert world.traffic.messages["collective"] == 0
         assert world.traffic.messages["neighbour"] == len(askers)

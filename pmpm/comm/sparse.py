@@ -24,10 +24,10 @@ import numpy as np
 #: one before it: two tags would do; a few more cost nothing.
 TAG_BASE, TAG_CYCLE = 20000, 4
 ALIGN = 16
-#: the tag of :func:`reply_arrays`: its messages go to known ranks, each received by
+#: the tag of :func:`exchange_known`: its messages go to known ranks, each received by
 #: source in the order sent (MPI keeps the order of messages between two ranks on one
 #: tag), so one tag serves every call
-REPLY_TAG = TAG_BASE + TAG_CYCLE
+KNOWN_TAG = TAG_BASE + TAG_CYCLE
 
 
 def exchange_arrays(world, packages):
@@ -86,40 +86,45 @@ def sent_to(packages, own_rank):
             and not is_empty(fields(p, list(p) if isinstance(p, dict) else None))]
 
 
-def reply_arrays(world, replies, askers, asked):
-    """The answers of an exchange whose partners are known from the one before it (a
-    question answered: pmpm.solver.contact_sums): send ``replies[r]`` to each rank r of
-    ``askers`` (those that sent here), receive one package from each rank of ``asked``
-    (those this rank sent to). No NBX barrier, and nothing at all where nobody asked:
-    each side knows whom to wait for. Every rank must answer every asker, and answer
-    with a package even if it has no rows (the asker waits for it).
+def exchange_known(world, packages, destinations, sources):
+    """An exchange whose partners both sides know already, without NBX's barrier:
+    send ``packages[r]`` to each rank r of ``destinations`` (even a package without
+    rows: its receiver waits for it) and receive one package from each rank of
+    ``sources``. Used where an exchange before it told every rank who sends to it (the
+    answers to questions, pmpm.solver.contact_sums: the askers and the asked), or where
+    every rank decides from the same gathered data whether s sends to r (node contact's
+    halo, from the allgathered boxes). Nothing at all is sent where a rank has no
+    partner. The calls must come in the same order on every rank (as for every
+    collective); the messages of two ranks keep their order (MPI's rule on one tag), so
+    one tag serves every call.
 
     Parameters
     ----------
-    replies : list of world.size packages (as for :func:`exchange_arrays`); those of
-        ranks not in ``askers`` are not sent, ``replies[world.rank]`` is returned as is
-        and is the template of the zero-row packages of the ranks not in ``asked``.
-    askers, asked : lists of ranks, this rank excluded
+    packages : list of world.size packages (as for :func:`exchange_arrays`); those of
+        ranks not in ``destinations`` are not sent, ``packages[world.rank]`` is returned
+        as is and is the template of the zero-row packages of the ranks not in
+        ``sources``.
+    destinations, sources : lists of ranks, this rank excluded
 
     Returns
     -------
     list of world.size packages, by source rank, as :func:`exchange_arrays` returns.
     """
-    own = replies[world.rank]
+    own = packages[world.rank]
     if world.size == 1:
         return [own]
     from mpi4py import MPI
     keys = list(own) if isinstance(own, dict) else None
     comm = world.raw
-    buffers = {r: pack(fields(replies[r], keys)) for r in askers}
-    sends = [comm.Isend([buf, MPI.BYTE], dest=r, tag=REPLY_TAG)
+    buffers = {r: pack(fields(packages[r], keys)) for r in destinations}
+    sends = [comm.Isend([buf, MPI.BYTE], dest=r, tag=KNOWN_TAG)
              for r, buf in buffers.items()]
     world.traffic.note("neighbour", sum(b.nbytes for b in buffers.values()), len(buffers))
     received, status = {}, MPI.Status()
-    for r in asked:
-        comm.Probe(source=r, tag=REPLY_TAG, status=status)
+    for r in sources:
+        comm.Probe(source=r, tag=KNOWN_TAG, status=status)
         buf = np.empty(status.Get_count(MPI.BYTE), np.uint8)
-        comm.Recv([buf, MPI.BYTE], source=r, tag=REPLY_TAG)
+        comm.Recv([buf, MPI.BYTE], source=r, tag=KNOWN_TAG)
         received[r] = unpack(buf)
     MPI.Request.Waitall(sends)
     empty = zero_rows(fields(own, keys))

@@ -10,11 +10,11 @@ the same sums bit for bit however they were spread over ranks and however they a
 The messages are packed sparse exchanges (pmpm.comm.sparse.exchange_arrays): one
 message to each rank that gets rows, none to the others; the answers of the home ranks
 go back to the ranks that asked, which both sides know from the questions
-(pmpm.comm.sparse.reply_arrays: no barrier, and no message where nobody asked).
+(pmpm.comm.sparse.exchange_known: no barrier, and no message where nobody asked).
 """
 import numpy as np
 
-from ..comm.sparse import exchange_arrays, reply_arrays, sent_to, senders
+from ..comm.sparse import exchange_arrays, exchange_known, sent_to, senders
 
 
 def sums_in_order(gid, pid, rows):
@@ -42,7 +42,7 @@ def sums_at_home(world, gid, pid, rows, home):
         mine = np.unique(ask[0])
         answers.append((mine, total[np.searchsorted(ids, mine)]))
     # the answers go back to the ranks that asked, known to both sides from the asks
-    back = reply_arrays(world, answers, senders(asks, world.rank),
+    back = exchange_known(world, answers, senders(asks, world.rank),
                         sent_to(questions, world.rank))
     ids = np.concatenate([a for a, _ in back])
     total = np.concatenate([b for _, b in back])
