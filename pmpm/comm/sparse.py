@@ -11,6 +11,10 @@ objects: P messages per call on P ranks, empty ones included, and a pickle of ev
 array. Here a call costs one message per rank that gets something plus one non-blocking
 barrier.
 
+Where both sides know already who sends to whom (the answers to an exchange's
+questions, or a choice every rank makes from the same gathered boxes),
+:func:`exchange_known` sends the packages without the barrier.
+
 A package is a tuple (or a dict with fixed keys) of numpy arrays with a first (row) axis.
 Its buffer is a header of int64 words (the header's length in words, the number of
 arrays, then per array its dtype code, number of axes and shape) and the arrays' bytes, each started on a 16-byte
