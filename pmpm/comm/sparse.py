@@ -11,6 +11,10 @@ objects: P messages per call on P ranks, empty ones included, and a pickle of ev
 array. Here a call costs one message per rank that gets something plus one non-blocking
 barrier.
 
+Where both sides know already who sends to whom (the answers to an exchange's
+questions, or a choice every rank makes from the same gathered boxes),
+:func:`exchange_known` sends the packages without the barrier.
+
 A package is a tuple (or a dict with fixed keys) of numpy arrays with a first (row) axis.
 Its buffer is a header of int64 words (the header's length in words, the number of
 arrays, then per array its dtype code, number of axes and shape) and the arrays' bytes, each started on a 16-byte
@@ -24,6 +28,10 @@ import numpy as np
 #: one before it: two tags would do; a few more cost nothing.
 TAG_BASE, TAG_CYCLE = 20000, 4
 ALIGN = 16
+#: the tag of :func:`exchange_known`: its messages go to known ranks, each received by
+#: source in the order sent (MPI keeps the order of messages between two ranks on one
+#: tag), so one tag serves every call
+KNOWN_TAG = TAG_BASE + TAG_CYCLE
 
 
 def exchange_arrays(world, packages):
@@ -63,6 +71,70 @@ def exchange_arrays(world, packages):
     out = []
     for r in range(world.size):
         arrays = unpack(received[r]) if r in received else empty
+        out.append(own if r == world.rank else
+                   dict(zip(keys, arrays)) if keys is not None else arrays)
+    return out
+
+
+def senders(packages, own_rank):
+    """The ranks whose package in a list returned by :func:`exchange_arrays` was sent
+    (has an element), this rank excluded: every rank knows after the exchange who sent
+    to it, and whom it sent to (:func:`sent_to`), without another message."""
+    return [r for r, p in enumerate(packages) if r != own_rank and not is_empty(
+        fields(p, list(p) if isinstance(p, dict) else None))]
+
+
+def sent_to(packages, own_rank):
+    """The ranks :func:`exchange_arrays` sends ``packages`` to (those not empty)."""
+    return [r for r, p in enumerate(packages) if r != own_rank and p is not None
+            and not is_empty(fields(p, list(p) if isinstance(p, dict) else None))]
+
+
+def exchange_known(world, packages, destinations, sources):
+    """An exchange whose partners both sides know already, without NBX's barrier:
+    send ``packages[r]`` to each rank r of ``destinations`` (even a package without
+    rows: its receiver waits for it) and receive one package from each rank of
+    ``sources``. Used where an exchange before it told every rank who sends to it (the
+    answers to questions, pmpm.solver.contact_sums: the askers and the asked), or where
+    every rank decides from the same gathered data whether s sends to r (node contact's
+    halo, from the allgathered boxes). Nothing at all is sent where a rank has no
+    partner. The calls must come in the same order on every rank (as for every
+    collective); the messages of two ranks keep their order (MPI's rule on one tag), so
+    one tag serves every call.
+
+    Parameters
+    ----------
+    packages : list of world.size packages (as for :func:`exchange_arrays`); those of
+        ranks not in ``destinations`` are not sent, ``packages[world.rank]`` is returned
+        as is and is the template of the zero-row packages of the ranks not in
+        ``sources``.
+    destinations, sources : lists of ranks, this rank excluded
+
+    Returns
+    -------
+    list of world.size packages, by source rank, as :func:`exchange_arrays` returns.
+    """
+    own = packages[world.rank]
+    if world.size == 1:
+        return [own]
+    from mpi4py import MPI
+    keys = list(own) if isinstance(own, dict) else None
+    comm = world.raw
+    buffers = {r: pack(fields(packages[r], keys)) for r in destinations}
+    sends = [comm.Isend([buf, MPI.BYTE], dest=r, tag=KNOWN_TAG)
+             for r, buf in buffers.items()]
+    world.traffic.note("neighbour", sum(b.nbytes for b in buffers.values()), len(buffers))
+    received, status = {}, MPI.Status()
+    for r in sources:
+        comm.Probe(source=r, tag=KNOWN_TAG, status=status)
+        buf = np.empty(status.Get_count(MPI.BYTE), np.uint8)
+        comm.Recv([buf, MPI.BYTE], source=r, tag=KNOWN_TAG)
+        received[r] = unpack(buf)
+    MPI.Request.Waitall(sends)
+    empty = zero_rows(fields(own, keys))
+    out = []
+    for r in range(world.size):
+        arrays = received.get(r, empty)
         out.append(own if r == world.rank else
                    dict(zip(keys, arrays)) if keys is not None else arrays)
     return out

@@ -8,11 +8,13 @@ Every sum over such rows is taken in (node id, pair key) order, so the same rows
 the same sums bit for bit however they were spread over ranks and however they arrive:
 1 rank agrees with N to round-off, and every copy of a shared node takes the same total.
 The messages are packed sparse exchanges (pmpm.comm.sparse.exchange_arrays): one
-message to each rank that gets rows, none to the others.
+message to each rank that gets rows, none to the others; the answers of the home ranks
+go back to the ranks that asked, which both sides know from the questions
+(pmpm.comm.sparse.exchange_known: no barrier, and no message where nobody asked).
 """
 import numpy as np
 
-from ..comm.sparse import exchange_arrays
+from ..comm.sparse import exchange_arrays, exchange_known, sent_to, senders
 
 
 def sums_in_order(gid, pid, rows):
@@ -29,8 +31,9 @@ def sums_at_home(world, gid, pid, rows, home):
     """(node ids, sums of ``rows``) of the nodes in ``gid``, over all ranks (collective):
     each rank sends its rows to the node's ``home`` rank (its lowest holder), which sums
     them in (node id, pair key ``pid``) order and answers with the totals."""
-    asks = exchange_arrays(world, [(gid[home == r], pid[home == r], rows[home == r])
-                                   for r in range(world.size)])
+    questions = [(gid[home == r], pid[home == r], rows[home == r])
+                 for r in range(world.size)]
+    asks = exchange_arrays(world, questions)
     ids, total = sums_in_order(np.concatenate([a[0] for a in asks]),
                                np.concatenate([a[1] for a in asks]),
                                np.concatenate([a[2] for a in asks]))
@@ -38,7 +41,9 @@ def sums_at_home(world, gid, pid, rows, home):
     for ask in asks:
         mine = np.unique(ask[0])
         answers.append((mine, total[np.searchsorted(ids, mine)]))
-    back = exchange_arrays(world, answers)
+    # the answers go back to the ranks that asked, known to both sides from the asks
+    back = exchange_known(world, answers, senders(asks, world.rank),
+                        sent_to(questions, world.rank))
     ids = np.concatenate([a for a, _ in back])
     total = np.concatenate([b for _, b in back])
     order = np.argsort(ids)

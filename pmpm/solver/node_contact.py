@@ -54,8 +54,9 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
 MPI: elements live on the rank of their centroid's slab; a node is held by every rank
 holding one of its elements. Each step every rank sends copies of its master faces whose
 box, grown by the face's depth and its nodes' move, meets the box of another rank's
-slave nodes grown by their move (one allgather of boxes, one packed sparse exchange of
-faces, pmpm.comm.sparse);
+slave nodes grown by their move (one allgather of boxes, the slave nodes' and the grown
+faces', then the faces packed to the ranks whose slave box meets this rank's face box,
+known to every rank from the boxes: pmpm.comm.sparse.exchange_known, no barrier);
 each pair is computed on the rank that
 counts its slave node. The Phi sums go to each node's lowest holder and back, and the
 rows of the impulses (slave and master nodes alike) to every holder of the node, all
@@ -65,7 +66,7 @@ node takes the same total, and 1 rank agrees with N to round-off.
 import numpy as np
 
 from ..comm.shared_nodes import sum_shared_rows
-from ..comm.sparse import exchange_arrays
+from ..comm.sparse import exchange_known
 from ..fem.hexahedron import FACES
 from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
@@ -214,17 +215,21 @@ class NodeContact(Coupling):
             return own
         x = self.elements.x[self.slaves]
         grow = self.slave_moves().max(initial=0.0)
-        box = (x.min(axis=0) - grow, x.max(axis=0) + grow) if len(x) else \
-            (np.full(3, np.inf), np.full(3, -np.inf))
-        boxes = self.world.allgather(box)
         lo, hi = np.empty((len(own["x"]), 3)), np.empty((len(own["x"]), 3))
         knc.segment_boxes(own["x"], own["depth"] + self.off_tol
                           + segment_moves(own["x"], own["x0"]), lo, hi)
+        # each rank's slave box and the box of its grown faces, on every rank: all know
+        # who sends faces to whom (those whose boxes meet), so the faces go without
+        # NBX's barrier (pmpm.comm.sparse.exchange_known)
+        boxes = self.world.allgather((box_of(x, x, grow), box_of(lo, hi, 0.0)))
+        me = self.world.rank
         packages = []
-        for r, (b_lo, b_hi) in enumerate(boxes):
-            going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != self.world.rank)
+        for r, ((b_lo, b_hi), _) in enumerate(boxes):
+            going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != me)
             packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
-        return joined_segments([own] + exchange_arrays(self.world, packages),
+        to = [r for r in range(len(boxes)) if r != me and meet(boxes[me][1], boxes[r][0])]
+        by = [r for r in range(len(boxes)) if r != me and meet(boxes[r][1], boxes[me][0])]
+        return joined_segments([own] + exchange_known(self.world, packages, to, by),
                                SEGMENT_FIELDS)
 
     # -- the step ---------------------------------------------------------------------
@@ -345,6 +350,19 @@ class NodeContact(Coupling):
         fem.v += total[:, 0] / fem.mass[:, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before) + total[:, 1] / fem.mass[:, None]
+
+
+def box_of(lo, hi, grow):
+    """(lo, hi) of the rows of ``lo`` and ``hi`` (n, 3), grown by ``grow``; an empty box
+    (lo = inf, hi = -inf: it meets nothing) where there is no row."""
+    if not len(lo):
+        return np.full(3, np.inf), np.full(3, -np.inf)
+    return lo.min(axis=0) - grow, hi.max(axis=0) + grow
+
+
+def meet(a, b):
+    """Whether boxes a and b, (lo, hi) each, overlap (closed: touching counts)."""
+    return bool(np.all((a[1] >= b[0]) & (a[0] <= b[1])))
 
 
 def face_buckets(seg_lo, seg_hi, faces, size):
