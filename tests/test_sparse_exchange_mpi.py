@@ -194,8 +194,7 @@ def test_swap_arrays_gives_each_partner_its_own_share():
     from pmpm.comm.shared_nodes import swap_arrays
     world = comm_world()
     me, n = world.rank, world.size
-    got = swap_arrays(world, {d: package(me, d, 1 + d + me) for d in range(n) if d != me},
-                      tag=90)
+    got = swap_arrays(world, {d: package(me, d, 1 + d + me) for d in range(n) if d != me})
     assert sorted(got) == [s for s in range(n) if s != me]
     for s, arrays in got.items():
         assert_same(arrays, package(s, me, 1 + s + me))

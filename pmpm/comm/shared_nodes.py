@@ -4,7 +4,7 @@ message, and every sharer adds the partials in rank order, so that the copies of
 shared node stay bitwise equal and 1 rank agrees with N to round-off."""
 import numpy as np
 
-from .sparse import pack, unpack
+from .sparse import exchange_known
 from .world import payload_bytes
 
 TAG = 79
@@ -61,7 +61,7 @@ def sum_shared_rows_in_element_order(world, values, partners, hexes, element_id,
     nodes, ids, parts = hexes[e, k], element_id[e], contributions[e, k]
     received = swap_arrays(world, {rank: _on_partner_nodes(idx, nodes, ids, parts,
                                                            len(values))
-                                   for rank, idx in partners}, tag=TAG + 1)
+                                   for rank, idx in partners})
     for rank, idx in partners:
         position, their_ids, their_parts = received[rank]
         nodes = np.concatenate([nodes, idx[position]])
@@ -82,26 +82,20 @@ def _on_partner_nodes(idx, nodes, ids, parts, n_nodes):
     return position[nodes[on]], ids[on], parts[on]
 
 
-def swap_arrays(world, packages, tag):
-    """Send ``packages[r]`` (a tuple of arrays, packed into one buffer:
-    pmpm.comm.sparse.pack) to each rank r of ``packages`` and return what each of them
-    sent here, {rank: tuple of arrays}. Each partner gets its own share only, without a
-    pickle. Every rank of ``packages`` must call it with this rank among its own (a
-    symmetric relation), or it waits for ever."""
-    from mpi4py import MPI
-    buffers = {r: pack(package) for r, package in packages.items()}
-    requests = [world.raw.Isend([buf, MPI.BYTE], dest=r, tag=tag)
-                for r, buf in buffers.items()]
-    world.traffic.note("neighbour", sum(buf.nbytes for buf in buffers.values()),
-                       len(buffers))
-    received, status = {}, MPI.Status()
-    for r in buffers:
-        world.raw.Probe(source=r, tag=tag, status=status)
-        buf = np.empty(status.Get_count(MPI.BYTE), np.uint8)
-        world.raw.Recv([buf, MPI.BYTE], source=r, tag=tag)
-        received[r] = unpack(buf)
-    MPI.Request.Waitall(requests)
-    return received
+def swap_arrays(world, packages):
+    """Send ``packages[r]`` (a tuple of arrays, packed into one buffer) to each rank r
+    of ``packages`` and return what each of them sent here, {rank: tuple of arrays}.
+    Each partner gets its own share only, without a pickle or a barrier
+    (pmpm.comm.sparse.exchange_known: the partners are known to both sides). Every rank
+    of ``packages`` must call it with this rank among its own (a symmetric relation),
+    or it waits for ever."""
+    if not packages:
+        return {}
+    ranks = list(packages)
+    template = packages[ranks[0]]
+    mine = [packages.get(r, template) for r in range(world.size)]
+    got = exchange_known(world, mine, ranks, ranks)
+    return {r: got[r] for r in ranks}
 
 
 def swap_with(world, ranks, payload, tag=80):
