@@ -40,16 +40,22 @@ def without_cull(monkeypatch):
     return run
 
 
+def points_near(rng, faces, before, n, spread):
+    """n points within ``spread`` of the faces' first corners, their positions a step
+    before, how far each moved, and how far each face moved."""
+    x = faces[rng.integers(0, len(faces), n), 0] + rng.uniform(-spread, spread, (n, 3))
+    x0 = x + rng.normal(0, 0.05, (n, 3))
+    seg_move = np.empty(len(faces))
+    ksc.segment_moves(faces, before, seg_move)
+    return x, x0, np.linalg.norm(x - x0, axis=1), seg_move
+
+
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_the_particle_search_finds_the_same_faces_with_the_skip(seed, without_cull):
     rng = np.random.default_rng(seed)
     faces, before = crowded_faces(rng)
     n = 600
-    px = faces[rng.integers(0, len(faces), n), 0] + rng.uniform(-0.8, 0.8, (n, 3))
-    px0 = px + rng.normal(0, 0.05, (n, 3))
-    moved = np.linalg.norm(px - px0, axis=1)
-    seg_move = np.empty(len(faces))
-    ksc.segment_moves(faces, before, seg_move)
+    px, px0, moved, seg_move = points_near(rng, faces, before, n, 0.8)
     args = (px, px0, np.zeros(n, np.int64), rng.uniform(0.01, 0.3, n), moved, faces,
             before, seg_move, np.ones(len(faces), np.int64),
             rng.permutation(len(faces)).astype(np.int64),
@@ -69,11 +75,7 @@ def test_the_node_search_finds_the_same_faces_with_the_skip(seed, without_cull):
     rng = np.random.default_rng(seed)
     faces, before = crowded_faces(rng)
     n = 600
-    nx = faces[rng.integers(0, len(faces), n), 0] + rng.uniform(-0.6, 0.6, (n, 3))
-    nx0 = nx + rng.normal(0, 0.05, (n, 3))
-    nmove = np.linalg.norm(nx - nx0, axis=1)
-    seg_move = np.empty(len(faces))
-    ksc.segment_moves(faces, before, seg_move)
+    nx, nx0, nmove, seg_move = points_near(rng, faces, before, n, 0.6)
     depth = rng.uniform(0.1, 0.5, len(faces))
     args = (nx, nx0, nmove, np.zeros(n, np.int64), faces, before, seg_move,
             np.ones(len(faces), np.int64), rng.permutation(len(faces)).astype(np.int64),

@@ -22,16 +22,22 @@ EXACT = ["grid.exact_sums=true"]
 STEPS = 300
 
 
+def stepped(sim, steps):
+    """``steps`` steps of the run loop's CFL step, sorting and rebalancing as the run
+    loop does (more often: every 10 steps)."""
+    for step in range(1, steps + 1):
+        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+        if step % 10 == 0:
+            sim.sort_by_cell()
+            sim.rebalance(0.02)
+
+
 def run(overrides, world=None):
     """The state by particle id after STEPS steps of the run loop's CFL step, sorting
     and rebalancing as the run loop does (more often)."""
     sim = set_up(CASE, COARSE + overrides, world)
     start = sim.particles.x[:, 2].copy(), sim.particles.id.copy()
-    for step in range(1, STEPS + 1):
-        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
-        if step % 10 == 0:
-            sim.sort_by_cell()
-            sim.rebalance(0.02)
+    stepped(sim, STEPS)
     p = sim.particles
     return sim, by_id(world, p.id, p.x, p.v, p.stress), by_id(world, start[1], start[0])
 
@@ -120,11 +126,7 @@ def windowed(case, overrides, steps, world=None):
     sim = set_up(case, overrides, world)
     sim.first_window_lo = [w.lo.copy() for w in sim.windows]
     start = ranks_by_id(sim, world)
-    for step in range(1, steps + 1):
-        sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
-        if step % 10 == 0:
-            sim.sort_by_cell()
-            sim.rebalance(0.02)
+    stepped(sim, steps)
     p = sim.particles
     return sim, by_id(world, p.id, p.x, p.v, p.stress), start
 
