@@ -99,3 +99,16 @@ def test_a_bar_that_loses_energy_to_pic_damping_is_warned_about_once(tmp_path):
     watch = balance(tmp_path)
     assert watch["warned_loss"] and watch["largest_loss"] > 0.05
     assert not watch["warned"]
+
+
+def test_a_checkpoint_keeps_the_current_balance():
+    """A restart's first progress line shows the balance where the checkpoint left it
+    (before, the growth and the loss came back as zero until the next history row)."""
+    from pmpm.solver.energy import EnergyWatch
+    watch = EnergyWatch(0.0, speak=False)
+    watch.observe(0.0, {"total": 100.0}, 0.0, 0.0)
+    watch.observe(1.0, {"total": 97.3}, 0.0, 0.0)
+    again = EnergyWatch(0.0, speak=False)
+    again.restore(watch.state())
+    assert (again.growth, again.loss) == (watch.growth, watch.loss)
+    assert again.loss == pytest.approx(0.027)

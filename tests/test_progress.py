@@ -67,6 +67,44 @@ def test_a_restart_measures_from_where_it_continues(clock):
     assert field(line, r"ETA\s+([\d.]+) s") == pytest.approx(0.45 / 5e-3, rel=1e-6)
 
 
+def test_a_restart_waits_for_its_next_mark(clock):
+    """Restarted at 13.6 %, the first line comes at 15 %, with the rate of the steps
+    since the restart (before, a line came at once, its rate over no steps and its
+    energy balance at zero)."""
+    stream = io.StringIO()
+    progress = P.Progress(1.0, stream=stream)
+    progress.start(0.136, 7e7)
+    clock.now += 0.1
+    progress.update(1, 0.1365, 5e-4, 7e7 + 1e5, energy_growth=-0.027)
+    assert lines_of(stream) == []
+    for k in range(2, 40):
+        clock.now += 0.1
+        progress.update(k, 0.136 + k * 5e-4, 5e-4, 7e7 + k * 1e5, energy_growth=-0.027)
+    first = lines_of(stream)[0]
+    assert field(first, r"(\d+\.\d)%") == 15.0
+    assert field(first, r"energy\s+([+-][\d.]+)%") == -2.7
+
+
+def test_a_mesh_run_shows_its_element_steps(clock):
+    """An FEM run counts element-steps: the line shows their rate beside the few
+    particles' (a mesh of 3e5 elements at 0.8 steps a second: 0.24 M element-steps/s);
+    a particle run's line has no element field."""
+    stream = io.StringIO()
+    progress = P.Progress(1.0, stream=stream)
+    for k in range(1, 201):
+        clock.now += 1.25
+        progress.update(k, k * 5e-4, 5e-4, k * 5e3, elements=k * 3e5)
+    line = lines_of(stream)[-1]
+    assert field(line, r"([\d.]+) M element-steps/s") == pytest.approx(0.24, abs=0.005)
+    assert field(line, r"([\d.]+) M particle-steps/s") == pytest.approx(0.0, abs=0.005)
+    plain = io.StringIO()
+    progress = P.Progress(1.0, stream=plain)
+    for k in range(1, 201):
+        clock.now += 1.25
+        progress.update(k, k * 5e-4, 5e-4, k * 5e3)
+    assert "element-steps" not in lines_of(plain)[-1]
+
+
 def test_a_slow_block_is_announced_and_a_quick_one_is_not():
     import time
     stream = io.StringIO()

@@ -127,7 +127,8 @@ class EnergyWatch:
                 "supplied": self.supplied, "largest": self.largest,
                 "largest_at": self.largest_at, "load_work": self.load_work,
                 "warned": self.warned, "largest_loss": self.largest_loss,
-                "largest_loss_at": self.largest_loss_at, "warned_loss": self.warned_loss}
+                "largest_loss_at": self.largest_loss_at, "warned_loss": self.warned_loss,
+                "growth": self.growth, "loss": self.loss}
 
     def restore(self, state):
         if state:
@@ -138,6 +139,8 @@ class EnergyWatch:
             self.largest_loss = state.get("largest_loss", 0.0)
             self.largest_loss_at = state.get("largest_loss_at", 0.0)
             self.warned_loss = state.get("warned_loss", False)
+            self.growth = state.get("growth", 0.0)     # as the last row left them, so
+            self.loss = state.get("loss", 0.0)         # a restart's first line says it
 
 
 def load_power(particles, load_vectors):

@@ -23,27 +23,28 @@ WINDOW_S = 20.0
 
 
 class RecentRate:
-    """Simulated time and particle-steps per wall second over the last ``WINDOW_S``
-    seconds (or since the start, when shorter): a run whose steps slow down (contact
-    spreads, particles split, a window refines) shows the rate and the ETA it has now,
-    not its average since the start."""
+    """Simulated time, particle-steps and element-steps per wall second over the last
+    ``WINDOW_S`` seconds (or since the start, when shorter): a run whose steps slow down
+    (contact spreads, particles split, a window refines) shows the rate and the ETA it
+    has now, not its average since the start."""
 
-    def __init__(self, now, t, work):
-        self.samples = collections.deque([(now, t, work)])
+    def __init__(self, now, t, work, elements=0):
+        self.samples = collections.deque([(now, t, work, elements)])
 
-    def add(self, now, t, work):
+    def add(self, now, t, work, elements=0):
         if now - self.samples[-1][0] >= WINDOW_S / 40:
-            self.samples.append((now, t, work))
+            self.samples.append((now, t, work, elements))
         while len(self.samples) > 2 and now - self.samples[1][0] >= WINDOW_S:
             self.samples.popleft()
 
-    def rates(self, now, t, work):
-        """(simulated time, particle-steps) per wall second over the window."""
-        then, t0, work0 = self.samples[0]
+    def rates(self, now, t, work, elements=0):
+        """(simulated time, particle-steps, element-steps) per wall second over the
+        window."""
+        then, t0, work0, elements0 = self.samples[0]
         wall = now - then
         if wall <= 0:
-            return 0.0, 0.0
-        return (t - t0) / wall, (work - work0) / wall
+            return 0.0, 0.0, 0.0
+        return (t - t0) / wall, (work - work0) / wall, (elements - elements0) / wall
 
 
 class Progress:
@@ -52,26 +53,30 @@ class Progress:
         self.stream = stream or sys.stdout
         self.enabled = enabled
         self.tty = on_terminal(self.stream)
-        self.start(0.0, 0)
         self.last_print = 0.0
-        self.next_mark = 1  # next multiple of 5 % to report when not on a terminal
+        self.start(0.0, 0)  # next_mark: the next multiple of 5 % to report off a terminal
 
-    def start(self, t, work):
-        """The step loop begins (at ``t``, after ``work`` particle-steps: a restart's)."""
+    def start(self, t, work, elements=0):
+        """The step loop begins (at ``t``, after ``work`` particle-steps and ``elements``
+        element-steps: a restart's); the next line is due at the first 5 % mark past
+        ``t``, not at once with a rate measured over no steps."""
         self.started = clock.perf_counter()
-        self.recent = RecentRate(self.started, t, work)
+        self.recent = RecentRate(self.started, t, work, elements)
+        fraction = t / self.end if self.end > 0 else 0.0
+        self.next_mark = int(fraction * 20 + 1e-9) + 1
 
-    def update(self, step, t, dt, work, energy_growth=0.0, lost=0, failed=0):
+    def update(self, step, t, dt, work, energy_growth=0.0, lost=0, failed=0, elements=0):
         """After a step: ``dt`` the step the run takes (not one shortened to land on a
         frame), ``work`` the particle-steps done so far, ``energy_growth`` the current
         energy balance (fraction), ``lost`` the particles that left the grid, ``failed``
         the failed points (damage >= 1, particles and elements, all ranks) at the last
-        history row."""
+        history row, ``elements`` the element-steps done so far (shown when the run has
+        FEM bodies: a mesh's run is measured by them, not by its few particles)."""
         if not self.enabled:
             return
         fraction = t / self.end if self.end > 0 else 1.0
         now = clock.perf_counter()
-        self.recent.add(now, t, work)
+        self.recent.add(now, t, work, elements)
         if self.tty and now - self.last_print < 1.0 and fraction < 1.0:
             return
         if not self.tty and fraction < self.next_mark / 20 - 1e-9:
@@ -79,10 +84,12 @@ class Progress:
         while self.next_mark / 20 - 1e-9 <= fraction:
             self.next_mark += 1
         self.last_print = now
-        speed, rate = self.recent.rates(now, t, work)
+        speed, rate, element_rate = self.recent.rates(now, t, work, elements)
         eta = (self.end - t) / speed if speed > 0 else float("nan")
         line = (f"step {step:7d}  t {t:.4e}  dt {dt:.3e}  {100 * fraction:5.1f}%  "
-                f"{rate / 1e6:6.2f} M particle-steps/s  energy {100 * energy_growth:+6.2f}%  "
+                f"{rate / 1e6:6.2f} M particle-steps/s  "
+                + (f"{element_rate / 1e6:6.2f} M element-steps/s  " if elements else "")
+                + f"energy {100 * energy_growth:+6.2f}%  "
                 f"ETA {eta:7.1f} s" + (f"  lost {lost}" if lost else "")
                 + (f"  failed {failed}" if failed else ""))
         end = "\r" if self.tty and fraction < 1.0 else "\n"

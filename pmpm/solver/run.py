@@ -103,6 +103,7 @@ class Runner:
         """Continue the counters of the run a checkpoint came from (see save_checkpoint)."""
         self.particle_steps = scalars["particle_steps"]
         self.element_steps = scalars.get("element_steps", 0)
+        self.failed = scalars.get("failed", 0)
         self.n_initial = scalars["n_initial"]
         self.step_wall = scalars.get("step_wall", 0.0)
         self.wall_before = scalars.get("wall_s", 0.0)
@@ -131,7 +132,7 @@ class Runner:
         self.started = clock.perf_counter()
         self.world.traffic.reset()          # what the steps send, not the set-up
         self.loop_first_step = self.sim.step_count
-        self.progress.start(self.sim.time, self.particle_steps)
+        self.progress.start(self.sim.time, self.particle_steps, self.element_steps)
         dt = 0.0
         while self.sim.time < self.end * (1 - 1e-12):
             dt = self.next_dt()
@@ -219,7 +220,8 @@ class Runner:
         if self.checkpoint_due(at_frame):
             self.save_checkpoint(dt)
         self.progress.update(step, sim.time, self.step_dt, self.particle_steps,
-                             self.watch.growth, sim.lost, self.failed)
+                             self.watch.growth, sim.lost, self.failed,
+                             elements=self.element_steps)
 
     def check_lost(self, dt):
         """A fault when some body has lost more than grid.lost_mass_fraction of its
@@ -332,7 +334,7 @@ class Runner:
         sim = self.sim
         scalars = {"time": sim.time, "step": sim.step_count, "dt": dt,
                    "particle_steps": self.particle_steps, "n_initial": self.n_initial,
-                   "element_steps": self.element_steps,
+                   "element_steps": self.element_steps, "failed": self.failed,
                    "frame_index": self.frame_index, "step_wall": self.step_wall,
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    "body_mass0": self.mass0.tolist(),
