@@ -70,14 +70,17 @@ def totals_at_holders(world, gid, pid, rows, holders, node_id):
 
 def node_holders(rank, partners, n_nodes):
     """(n_nodes, k) the ranks holding each local node, ascending, padded with -1."""
-    lists = [[rank] for _ in range(n_nodes)]
-    for other, idx in partners:
-        for i in idx:
-            lists[i].append(other)
-    width = max((len(l) for l in lists), default=1)
+    nodes = np.concatenate([np.arange(n_nodes, dtype=np.int64)]
+                           + [np.asarray(idx, np.int64) for _, idx in partners])
+    ranks = np.concatenate([np.full(n_nodes, rank, np.int64)]
+                           + [np.full(len(idx), other, np.int64) for other, idx in partners])
+    order = np.lexsort((ranks, nodes))
+    nodes, ranks = nodes[order], ranks[order]
+    starts = np.searchsorted(nodes, np.arange(n_nodes, dtype=np.int64))
+    column = np.arange(len(nodes), dtype=np.int64) - starts[nodes]
+    width = int(column.max()) + 1 if len(column) else 1
     out = np.full((n_nodes, width), -1, np.int64)
-    for i, l in enumerate(lists):
-        out[i, :len(l)] = sorted(l)
+    out[nodes, column] = ranks
     return out
 
 

@@ -271,16 +271,14 @@ class FemBodies(BodyKind):
     def set_columns(self, elements, nodes):
         """Take the elements and nodes this rank now holds (any order; kept sorted by
         global id), and find again the nodes it shares."""
-        order = np.argsort(nodes["node_id"], kind="stable")
         if "x0" not in nodes:                       # checkpoints before displacements
             nodes = dict(nodes, x0=nodes["x"])
-        for name, column in nodes.items():
-            setattr(self, name, np.ascontiguousarray(column[order]))
-        order = np.argsort(elements["element_id"], kind="stable")
-        e = {k: np.ascontiguousarray(col[order]) for k, col in elements.items()}
+        for name, column in in_id_order(nodes, "node_id").items():
+            setattr(self, name, column)
+        e = in_id_order(elements, "element_id")
         self.element_id, self.body = e["element_id"], e["body"]
         self.vol0, self.element_mass = e["vol0"], e["element_mass"]
-        self.hexes = np.searchsorted(self.node_id, e["hexes"]).astype(np.int64)
+        self.hexes = local_indices(self.node_id, e["hexes"])
         self.rates = np.zeros(len(self.hexes))      # until the next force pass
         self.state = MaterialState(*(e[name] for name in MaterialState._fields))
         self.hourglass = self.hourglass._replace(resist=e["resist"], energy=e["hg_energy"])
@@ -727,3 +725,25 @@ def initial_waves(table):
     speeds = np.array([0.0 if table.rigid[b] else table.initial_wave_speed(b)
                        for b in range(nb)])
     return np.ascontiguousarray(table.params[:, layout.RHO0]), speeds
+
+
+def in_id_order(columns, id_name):
+    """``columns`` (a dict of arrays) sorted by ``columns[id_name]`` (stable), each
+    contiguous. Removal keeps the order, so there the sort, and the copy of every
+    column it takes (a fifth of a second at 314,600 elements), is skipped."""
+    ids = columns[id_name]
+    if len(ids) < 2 or bool(np.all(ids[1:] > ids[:-1])):
+        return {k: np.ascontiguousarray(col) for k, col in columns.items()}
+    order = np.argsort(ids, kind="stable")
+    return {k: np.ascontiguousarray(col[order]) for k, col in columns.items()}
+
+
+def local_indices(node_id, global_ids):
+    """The local index of each of ``global_ids`` (int64) in the ascending ``node_id``:
+    a table over the ids' range where it is not much larger than the node count (one
+    gather), a binary search otherwise."""
+    if len(node_id) and node_id[-1] - node_id[0] < 4 * len(node_id) + 1024:
+        table = np.zeros(int(node_id[-1] - node_id[0]) + 1, np.int64)
+        table[node_id - node_id[0]] = np.arange(len(node_id), dtype=np.int64)
+        return table[np.asarray(global_ids) - node_id[0]]
+    return np.searchsorted(node_id, global_ids).astype(np.int64)

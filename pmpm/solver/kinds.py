@@ -46,6 +46,9 @@ class BodyKind:
     speed = 0.0
     #: what :meth:`elements_changed` calls, in the order they were added
     element_listeners = ()
+    #: how many times the elements changed: what depends on the mesh alone (the free
+    #: faces) may be kept while it stays, the same on every rank (the event is collective)
+    mesh_version = 0
 
     def when_elements_change(self, listener):
         """Have ``listener()`` called each time this kind's set of elements changes
@@ -57,6 +60,7 @@ class BodyKind:
     def elements_changed(self):
         """Raised by the kind, collectively, once its elements have changed (removed,
         or moved to other ranks): every listener rebuilds what depends on them."""
+        self.mesh_version += 1
         for listener in self.element_listeners:
             listener()
 

@@ -67,17 +67,15 @@ import numpy as np
 
 from ..comm.shared_nodes import sum_shared_rows
 from ..comm.sparse import exchange_known
-from ..fem.hexahedron import FACES
 from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
 from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
-from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
-                           totals_at_holders)
+from .contact_sums import pad_holders, sums_at_home, sums_in_order, totals_at_holders
 from .couplings import Coupling, kept_copy
 from .errors import SetupError
 from .fem_grid import grid_coupled_bodies
-from .surface_contact import (MAX_BUCKETS, free_face_mask, gathered_segments,
+from .surface_contact import (MAX_BUCKETS, gathered_segments, mesh_faces,
                               joined_segments, segment_boxes, shapes)
 
 #: the share of a depth left after the impulses that a pair closes in a step, by moving
@@ -164,14 +162,11 @@ class NodeContact(Coupling):
         among the ranks that share nodes); call again whenever the elements it holds
         change."""
         fem = self.elements
-        faces = fem.hexes[:, FACES].reshape(-1, 4)
-        key = (fem.element_id[:, None] * 6 + np.arange(6)).ravel().astype(np.int64)
-        free = free_face_mask(self.world, faces, fem.node_id, fem.partners)
+        faces, key, free, self.holders = mesh_faces(self.world, fem)
         face_body = np.repeat(fem.body, 6)
         keep = free & self.masters[face_body]
         self.face_nodes = np.ascontiguousarray(faces[keep])
         self.face_key = key[keep]
-        self.holders = node_holders(self.world.rank, fem.partners, len(fem.x))
         inv_m = np.where(fem.fixed.all(axis=1), 0.0, 1.0 / fem.mass)
         inv_m[fem.rigid_nodes()] = 0.0
         self.inv_m = inv_m
