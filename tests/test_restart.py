@@ -117,6 +117,19 @@ def test_restart_of_a_finished_run_changes_nothing(tmp_path, uninterrupted):
     assert_same_state(frame(uninterrupted), frame(out), 0.0)
 
 
+def test_a_restart_with_its_frame_file_gone_starts_a_new_one(tmp_path, cut_on_one_rank):
+    """particles.h5 deleted (to save space, say) before --restart: the run goes on and
+    warns, and the new file holds the frames from the checkpoint on (it stopped with
+    h5py's bare 'no such file or directory' before)."""
+    out = tmp_path / "out"
+    shutil.copytree(cut_on_one_rank, out)
+    (out / "particles.h5").unlink()
+    done = run_ok([BAR, "--out", out, "--restart", "--quiet", "--set", END])
+    assert any("particles.h5 is missing" in line for line in pmpm_lines(done.stderr))
+    times = [t for t, _ in frame_list(out)]
+    assert times and min(times) > float(BAR_HALF_END) * (1 - 1e-9)
+
+
 def test_restart_needs_a_checkpoint(tmp_path):
     out = tmp_path / "out"
     out.mkdir()

@@ -32,6 +32,7 @@ block of rows. No rank gathers a frame or
 holds the whole mesh; /mesh is written the same way when the file is created.
 """
 import os
+import sys
 
 import h5py
 import numpy as np
@@ -100,6 +101,10 @@ class ElementWriter:
             self.file = h5py.File(path, "r+", driver="mpio", comm=comm)
             self.continue_file(restart_frame)
             return
+        if restart_frame is not None and comm.rank == 0:
+            sys.stderr.write(f"pmpm: warning: --restart: {path} is missing; the element "
+                             f"frames from the checkpoint on go to a new file\n")
+            sys.stderr.flush()
         self.file = h5py.File(path, "w", driver="mpio", comm=comm)
         self.file.attrs["body_names"] = list(body_names)
         self.file.attrs["ranks"] = comm.size

@@ -19,6 +19,7 @@ order depends on the ranks: sort by ``id`` to follow particles between frames. (
 written before ``body_counts`` existed hold the ranks' rows one rank after another.)
 """
 import os
+import sys
 
 import h5py
 import numpy as np
@@ -133,6 +134,12 @@ class ParticleWriter:
         self.body_names = []
         self._frames, self._texts = [], []
         os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
+        if restart_frame is not None and not C.bcast_root(comm, os.path.exists(self.path)):
+            if comm.rank == 0:
+                sys.stderr.write(f"pmpm: warning: --restart: {self.path} is missing; the "
+                                 f"frames from the checkpoint on go to a new file\n")
+                sys.stderr.flush()
+            restart_frame = None
         mode = "w" if restart_frame is None else "r+"
         self._file = h5py.File(self.path, mode, driver="mpio", comm=comm)
         self._write_header(*C.bcast_root(comm, (case_text, attrs)))
