@@ -79,6 +79,33 @@ def test_a_conversion_keeps_mass_and_momentum_and_exposes_the_faces_above():
     assert np.allclose(p.rho, fem.state.rho[0]) and np.all(p.body == 0)
 
 
+def test_the_face_counts_follow_removals_step_by_step(monkeypatch):
+    """Three conversions in a row, each a layer higher: after each the surface contact's
+    faces are the free faces of what is left, and the face counts the FEM kind keeps,
+    updated from the removed elements' faces alone (a count of every face is refused
+    after the set-up), are those of a count from scratch."""
+    from pmpm.fem.hexahedron import FACES
+    from pmpm.kernels.face_match import matching_face_counts
+    from pmpm.solver import surface_contact
+    sim = simulation(SPIN)
+    fem = sim.elements
+
+    def refused(gids):
+        raise AssertionError("every face counted again after a removal")
+    monkeypatch.setattr(surface_contact, "matching_face_counts", refused)
+    for height in (1.6, 3.1, 4.6):
+        version = fem.mesh_version
+        count, _ = convert_foot(sim, height)
+        assert count > 0 and fem.mesh_version == version + 1
+        assert fem.last_removal[0] == version           # the update, not a recount
+        kept_version, _, counts = fem._mesh_faces
+        assert kept_version == fem.mesh_version
+        gids = fem.node_id[fem.hexes[:, FACES].reshape(-1, 4)]
+        assert (counts == matching_face_counts(gids)).all()
+        segments = {tuple(r) for r in np.sort(fem.node_id[sim.surface.face_nodes], axis=1)}
+        assert segments == free_faces_from_scratch(fem)
+
+
 def test_every_element_converted_leaves_particles_only():
     """volume_ratio 1 converts every element at once: all the mass and momentum are the
     particles', no node is left."""

@@ -57,3 +57,16 @@ def test_node_holders_list_the_ranks_in_ascending_order():
                     for r in others[:int(rng.integers(0, 4))]]
         got, want = node_holders(rank, partners, n), holders_by_lists(rank, partners, n)
         assert got.shape == want.shape and (got == want).all()
+
+
+def test_faces_of_a_table_are_counted_for_each_query_face():
+    """matches_in: for each query face the number of table faces with its four nodes
+    (rows permuted), as sorting the two together finds it."""
+    from pmpm.kernels.face_match import matches_in
+    rng = np.random.default_rng(7)
+    table = rng.integers(0, 12, (300, 4))
+    query = np.concatenate([rng.permuted(table[:100], axis=1), rng.integers(0, 12, (400, 4))])
+    both = np.concatenate([query, table])
+    want = counts_by_sorting(both)[:len(query)] - counts_by_sorting(query)
+    assert (matches_in(query, table) == want).all()
+    assert (matches_in(query, table[:0]) == 0).all()

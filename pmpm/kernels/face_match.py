@@ -77,6 +77,48 @@ def face_counts(gids, m0, m1, m2, m3):
     return out
 
 
+@njit(cache=True)
+def table_matches(query, table, m0, m1, m2, m3):
+    """(nq,) for each face of ``query`` ((nq, 4) node ids) the number of faces of
+    ``table`` ((nt, 4)) with the same four nodes."""
+    ids = sorted_face_ids(table)
+    n = ids.shape[0]
+    size = 1
+    while size < 2 * n + 2:
+        size *= 2
+    mask = np.uint64(size - 1)
+    slots = np.full(size, -1, np.int64)
+    count = np.zeros(size, np.int64)
+    for f in range(n):
+        slot = _face_hash(ids, f, m0, m1, m2, m3) & mask
+        while slots[slot] >= 0 and not _same(ids, slots[slot], f):
+            slot = (slot + np.uint64(1)) & mask
+        slots[slot] = f
+        count[slot] += 1
+    asked = sorted_face_ids(query)
+    out = np.zeros(asked.shape[0], np.int64)
+    if n == 0:
+        return out
+    both = np.empty((2, 4), np.int64)
+    for q in range(asked.shape[0]):
+        both[1] = asked[q]
+        slot = _face_hash(asked, q, m0, m1, m2, m3) & mask
+        while slots[slot] >= 0:
+            both[0] = ids[slots[slot]]
+            if _same(both, 0, 1):
+                out[q] = count[slot]
+                break
+            slot = (slot + np.uint64(1)) & mask
+    return out
+
+
+def matches_in(query, table):
+    """(nq,) how many faces of ``table`` have each face of ``query``'s four nodes."""
+    query = np.ascontiguousarray(query, np.int64).reshape(-1, 4)
+    table = np.ascontiguousarray(table, np.int64).reshape(-1, 4)
+    return table_matches(query, table, *_MIX)
+
+
 def matching_face_counts(gids):
     """(n,) how many faces of ``gids`` ((n, 4) node ids) have each face's four nodes."""
     gids = np.ascontiguousarray(gids, np.int64).reshape(-1, 4)

@@ -327,6 +327,10 @@ class FemBodies(BodyKind):
             np.zeros(node_ids.size, bool)
         np.subtract.at(self.mass, held[here], np.repeat(share, 8)[here])
         keep = ~chosen
+        # for the couplings' free faces: what this change removed (pmpm.solver.surface_
+        # contact.local_face_counts updates the faces' counts from it)
+        self.last_removal = (self.mesh_version, keep,
+                             self.node_id[self.hexes[chosen][:, FACES]].reshape(-1, 4))
         elements = {k: col[keep] for k, col in self.element_columns().items()}
         used = np.zeros(len(self.node_id), bool)
         used[self.hexes[keep].ravel()] = True

@@ -99,7 +99,7 @@ from ..comm.shared_nodes import swap_with
 from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
 from ..kernels.boundary import FREE, column_kinds
-from ..kernels.face_match import matching_face_counts
+from ..kernels.face_match import matches_in, matching_face_counts
 from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
 from ..kernels.portable import cube_roots
@@ -609,30 +609,44 @@ def shapes(xi, eta):
 def mesh_faces(world, fem):
     """(faces, key, free, holders) of the FEM kind ``fem``'s elements: their faces as rows
     of 4 local node indices (six per element), each face's key (element id * 6 + face),
-    which are free over all ranks (:func:`free_face_mask`), and each local node's holders.
-    Kept on ``fem`` while its mesh stays (``mesh_version``), so that the couplings that
-    rebuild their faces on one change (surface and node contact) find them once: at the
-    seed's 1 mm perforation, about 0.3 s a change, and elements convert at most steps."""
+    which are free over all ranks (:func:`shared_faces_taken`), and each local node's
+    holders. Kept on ``fem`` while its mesh stays (``mesh_version``), so that the
+    couplings that rebuild their faces on one change (surface and node contact) find them
+    once: at the seed's 1 mm perforation (1.9 million faces) elements convert at about
+    every other step."""
     kept = getattr(fem, "_mesh_faces", None)
     if kept is not None and kept[0] == fem.mesh_version:
         return kept[1]
     faces = fem.hexes[:, FACES].reshape(-1, 4)
     key = (fem.element_id[:, None] * 6 + np.arange(6)).ravel().astype(np.int64)
-    free = free_face_mask(world, faces, fem.node_id, fem.partners)
+    gids = fem.node_id[faces]
+    counts = local_face_counts(kept, getattr(fem, "last_removal", None), fem.mesh_version,
+                               gids)
+    free = shared_faces_taken(world, faces, gids, counts == 1, fem.node_id, fem.partners)
     holders = node_holders(world.rank, fem.partners, len(fem.x))
     found = (faces, key, free, holders)
-    fem._mesh_faces = (fem.mesh_version, found)
+    fem._mesh_faces = (fem.mesh_version, found, counts)
     return found
 
 
-def free_face_mask(world, faces, node_id, partners):
-    """Which faces (``faces``: rows of 4 local node indices, six per element) belong to
-    one element only, over all ranks: a face found once here is interior when a rank
-    that shares its four nodes has it too (collective among the sharers). Only such
-    faces, free here with all four nodes shared with a partner, go to that partner, and
-    only they can match what it sends."""
-    gids = node_id[faces]
-    free = matching_face_counts(gids) == 1
+def local_face_counts(kept, removal, version, gids):
+    """(n,) for each face (``gids``: its global node ids) how many of this rank's faces
+    have its four nodes. After a removal alone (``removal``: the version it changed, the
+    elements kept, the removed elements' faces' node ids) the counts kept from the mesh
+    before less the removed faces that matched (removal keeps the elements' order): one
+    pass over the faces with a small table, not a table of all of them."""
+    if kept is not None and removal is not None and removal[0] == kept[0] == version - 1:
+        keep = np.repeat(removal[1], 6)
+        if keep.sum() == len(gids):
+            return kept[2][keep] - matches_in(gids, removal[2]).astype(np.int32)
+    return matching_face_counts(gids).astype(np.int32)
+
+
+def shared_faces_taken(world, faces, gids, free, node_id, partners):
+    """``free`` (faces found once on this rank) less the faces a rank that shares their
+    four nodes has too (collective among the sharers). Only faces free here with all four
+    nodes shared with a partner go to that partner, and only they can match what it
+    sends."""
     if not partners:
         return free
     candidates, offered = {}, {}
