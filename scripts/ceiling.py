@@ -45,6 +45,7 @@ import numpy as np
 from numba import njit
 
 from _common import ROOT, save_json, write_lines
+import bench
 import performance_page
 from pmpm.kernels.shape import LINEAR, MAX_NODES, point_axes, stencil
 from pmpm.materials.kernels import update_stress_columns
@@ -476,7 +477,8 @@ def main():
         return
     rates = machine()
     print(json.dumps(rates))
-    data = {"machine": rates, "case": {"file": os.path.relpath(CASE, ROOT), "set": SETS},
+    data = {**bench.provenance(), "machine": rates,
+            "case": {"file": os.path.relpath(CASE, ROOT), "set": SETS},
             "shapes": [measure_shape(s, args.warm, args.repeat, rates) for s in args.shapes]}
     save_json(os.path.join(args.out, "ceiling.json"), data)
     write_lines(os.path.join(args.out, "ceiling.md"), performance_page.ceiling_table(data),

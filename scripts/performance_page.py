@@ -266,8 +266,10 @@ def ceiling_section(data, source):
     case = data.get("case", {})
     sets = " ".join(f"--set {s}" for s in case.get("set", []))
     return ["", CEILING_START, "", "## The step's ceiling", "",
-            f"Made from {source} by `python scripts/ceiling.py` on `{case.get('file', '?')}` "
-            f"{sets} (the hats, then gimp), each phase timed in the real run; what the figures "
+            f"Measured at commit `{data.get('commit', 'unknown')}` on "
+            f"{data.get('date', 'an unknown date')} with `{data.get('command', 'python scripts/ceiling.py')}` "
+            f"({source}): `{case.get('file', '?')}` {sets}, the hats, then gimp, each phase "
+            "called as the step calls it on the state of the running bar; what the figures "
             f"say: [performance notes]({NOTES}), \"The step's ceiling\".", ""] \
         + ceiling_table(data) + [CEILING_END]
 
