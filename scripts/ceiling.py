@@ -477,7 +477,8 @@ def main():
         return
     rates = machine()
     print(json.dumps(rates))
-    data = {**bench.provenance(), "machine": rates,
+    made = dict(bench.provenance(), command=" ".join(["python scripts/ceiling.py"] + sys.argv[1:]))
+    data = {**made, "machine": rates,
             "case": {"file": os.path.relpath(CASE, ROOT), "set": SETS},
             "shapes": [measure_shape(s, args.warm, args.repeat, rates) for s in args.shapes]}
     save_json(os.path.join(args.out, "ceiling.json"), data)
