@@ -63,18 +63,16 @@ def test_layered_scatter_is_the_fold_of_the_layer_sums(shape, axis):
     b = whole_block(shape, axis)
     nodal, _ = layered_scatter(pts, order, b, shape)
     geo, rigid = geometry(b, shape), np.zeros(1, np.bool_)
-    layers = {}
-    for p in order:
-        layers.setdefault(int(np.floor(pts.x[p, axis])), []).append(p)
-    expected = np.zeros_like(nodal)
-    for layer in sorted(layers):    # each layer's particles, in order, on a zero grid
-        # (a layer's sum, not the sum of each particle's rounded part: the kernels fuse
-        # a product into its sum, pmpm.kernels.shape.CONTRACT)
+    layer_sums = {}
+    for p in order:                 # each particle's contributions, added in numpy
+        one = PointState(*(column[p:p + 1] for column in pts))
         own = np.zeros_like(nodal)
-        chosen = np.array(layers[layer])
-        mpm.particles_to_grid(PointState(*(column[chosen] for column in pts)), rigid, geo,
-                              own, 0, None, None)
-        expected += own
+        mpm.particles_to_grid(one, rigid, geo, own, 0, None, None)
+        layer = int(np.floor(pts.x[p, axis]))
+        layer_sums[layer] = layer_sums.get(layer, 0.0) + own
+    expected = np.zeros_like(nodal)
+    for layer in sorted(layer_sums):
+        expected += layer_sums[layer]
     assert np.array_equal(nodal, expected)
     assert nodal[:, 0].sum() == pytest.approx(pts.mass.sum(), rel=1e-13)
 

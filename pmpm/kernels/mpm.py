@@ -25,12 +25,12 @@ from ..materials.kernels import update_stress_columns
 from .affine import affine_velocity_matrix, node_offsets
 from .boundary import constrain_acceleration, constrain_velocity
 from .layered import NO_LAYER, layer_plane, leave_layer, point_at, unpack
-from .shape import CONTRACT, LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
+from .shape import LINEAR, MAX_NODES, point_axes, point_weights, stencil, weights
 
 NODAL_COMPONENTS = 8
 
 
-@njit(cache=True, fastmath=CONTRACT)
+@njit(cache=True)
 def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
     """Scatter mass and momentum (Eqs. 12-13); rigid bodies also into the rigid slots.
     With ``affine`` (the particles' A_p, (n, 9), see ``pmpm.kernels.affine``; 27-node
@@ -145,7 +145,7 @@ def integrate_nodes(nodal, force, gvel, dt, block, m_tiny, gnew):
             gnew[n, 3 + d] = acc[d]
 
 
-@njit(cache=True, fastmath=CONTRACT)
+@njit(cache=True)
 def grid_to_particles(pts, rigid, dt, geo, gnew, contact, want, pic, affine=None):
     """Positions from the new nodal velocities (Eq. 15), velocities from the nodal
     accelerations (Eq. 16, FLIP); rigid particles move with their own velocity. At contact
@@ -255,7 +255,7 @@ def _gather_affine(affine, p, b, nodes, w, axes, reach, inv_h, gnew, contact, e)
     affine[p, 6], affine[p, 7], affine[p, 8] = a20 * inv_h, a21 * inv_h, a22 * inv_h
 
 
-@njit(cache=True, fastmath=CONTRACT)
+@njit(cache=True)
 def stress_and_forces(pts, mat, bodies, loads, dt, h, geo, gvel, force, contact, want,
                       stresses, forces, layers=None, clayers=None):
     """The particle pass of the step: with ``stresses``, update every particle's stress

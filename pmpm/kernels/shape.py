@@ -36,14 +36,6 @@ MAX_NODES = 27
 #: with the code a constant: LLVM drops the other shapes' branches and unrolls the hat's
 #: 8-node loops (a runtime code ran the hat at half its former speed).
 MARKERS = {LINEAR: (), GIMP: (0,), BSPLINE: (0, 0)}
-#: the only fastmath flag of the particle loops (pmpm.kernels.mpm) and of the shape
-#: functions LLVM inlines into them (compiled apart, with flags of their own): a * b + c
-#: as one fused multiply-add, rounded once. It moves round-off, not the order of any sum:
-#: a node's sum over particles still adds them one at a time in the particles' order
-#: (N ranks still give one rank's answers to round-off, layer-ordered sums the same
-#: bits); no flag that assumes finite values (the kernels test them) or reorders a sum.
-#: The hats' step: 6 % less CPU
-CONTRACT = {"contract"}
 
 
 @njit(cache=True, inline="always")
@@ -129,7 +121,7 @@ def point_axes(x, p, origin, inv_h, lo, strides, kind, lp, axes):
     return base, count
 
 
-@njit(cache=True, forceinline=True, fastmath=CONTRACT)
+@njit(cache=True, forceinline=True)
 def stencil(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w, gx, gy, gz):
     """Fill the local node indices, weights and gradients of particle ``p``; returns how
     many nodes it reaches (8 or 27).
@@ -185,7 +177,7 @@ def point_weights(x, p, origin, inv_h, lo, strides, kind, lp, axes):
     return base, count
 
 
-@njit(cache=True, forceinline=True, fastmath=CONTRACT)
+@njit(cache=True, forceinline=True)
 def weights(x, p, origin, inv_h, lo, strides, kind, lp, axes, nodes, w):
     """:func:`stencil` without the gradients: the local node indices and weights of
     particle ``p`` (and the offsets of ``axes``' rows 3d + 2, which APIC reads); returns
