@@ -98,8 +98,11 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contribu
     rate, bad, why = 0.0, -1, NO_FAULT
     m = hexes.shape[0]
     for e0 in range(0, m, lanes.LANES):
+        bb0 = body[e0]
         if e0 + lanes.LANES <= m and _reduced_block(body, rigid, hg_kind, e0):
-            done, rate, bad, why = _block_forces(e0, blk, mesh, mat, bodies, hourglass, dt,
+            done, rate, bad, why = _block_forces(e0, blk, x, v, hexes, mat, codes[bb0],
+                                                 params[bb0], hg_kind[bb0],
+                                                 hg_coefficient[bb0], resist, hg_energy, dt,
                                                  force, rates, contributions, Lg, rate, bad,
                                                  why)
             if done:
@@ -181,15 +184,12 @@ def _reduced_block(body, rigid, hg_kind, e0):
 
 
 @njit(cache=True, inline="always")
-def _block_forces(e0, blk, mesh, mat, bodies, hourglass, dt, force, rates, contributions,
-                  Lg, rate, bad, why):
+def _block_forces(e0, blk, x, v, hexes, mat, code, prm, kind, coefficient, resist,
+                  energy, dt, force, rates, contributions, Lg, rate, bad, why):
     """element_forces on the block of LANES reduced elements from e0 on, lane by lane;
     returns (done, rate, bad, why), done False (and nothing changed) where an element of
     the block is inverted: the block then goes element by element."""
-    x, v, hexes, body = mesh
     stress, F, rho, eps_p, e_int, temp, q, damage, w_p = mat
-    bb = body[e0]
-    prm, kind, coefficient = bodies.params[bb], hourglass.kind[bb], hourglass.coefficient[bb]
     lanes.gather(x, v, hexes, e0, blk.x, blk.v)
     lanes.mean_gradients(blk.x, blk.b, blk.volume)
     for l in range(lanes.LANES):
@@ -201,7 +201,7 @@ def _block_forces(e0, blk, mesh, mat, bodies, hourglass, dt, force, rates, contr
         e = e0 + l
         for k in range(9):
             Lg[k // 3, k % 3] = blk.lg[k * lanes.LANES + l]
-        c = update_stress_columns(e, bodies.codes[bb], prm, dt, blk.length[l], Lg, stress,
+        c = update_stress_columns(e, code, prm, dt, blk.length[l], Lg, stress,
                                   F, rho, eps_p, e_int, temp, q, damage, w_p)
         blk.c[l], blk.rho[l], blk.ok[l] = c, rho[e], c >= 0.0
         if not c >= 0.0 and bad < 0:
@@ -215,18 +215,18 @@ def _block_forces(e0, blk, mesh, mat, bodies, hourglass, dt, force, rates, contr
     if kind == STIFFNESS:
         for l in range(lanes.LANES):
             for j in range(12):
-                blk.resist[j * lanes.LANES + l] = hourglass.resist[e0 + l, j]
+                blk.resist[j * lanes.LANES + l] = resist[e0 + l, j]
         lanes.rotate_resistances(blk.resist, blk.lg, dt)
     lanes.hourglass_forces(blk, dt, kind, coefficient)
     for l in range(lanes.LANES):            # in element order, as element by element
         if blk.ok[l]:
-            rate = _block_element_done(e0 + l, l, blk, kind == STIFFNESS, hexes, hourglass,
-                                       force, rates, contributions, rate)
+            rate = _block_element_done(e0 + l, l, blk, kind == STIFFNESS, hexes, resist,
+                                       energy, force, rates, contributions, rate)
     return True, rate, bad, why
 
 
 @njit(cache=True, inline="always")
-def _block_element_done(e, l, blk, stiffness, hexes, hourglass, force, rates,
+def _block_element_done(e, l, blk, stiffness, hexes, resist, energy, force, rates,
                         contributions, rate):
     """Lane l's element e of a block: its rate, stored hourglass forces and energy, and
     its forces added to the nodes; returns the largest rate so far."""
@@ -236,8 +236,8 @@ def _block_element_done(e, l, blk, stiffness, hexes, hourglass, force, rates,
         rates[e] = own
     if stiffness:
         for j in range(12):
-            hourglass.resist[e, j] = blk.resist[j * lanes.LANES + l]
-    hourglass.energy[e] += blk.work[l]
+            resist[e, j] = blk.resist[j * lanes.LANES + l]
+    energy[e] += blk.work[l]
     for k in range(8):
         n = hexes[e, k]
         for i in range(3):
