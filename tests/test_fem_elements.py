@@ -243,3 +243,59 @@ def test_stiffness_hourglass_control_keeps_the_stable_step_up_to_k_01():
     assert physical == pytest.approx(2.582, abs=1e-3)
     assert largest_frequency(0.1) == pytest.approx(physical, rel=1e-6)
     assert largest_frequency(0.3) > 1.1 * physical     # a stiffer control would reduce it
+
+
+def copper_block(n, kind, alternate):
+    """n^3 distorted copper elements (Johnson-Cook + Mie-Grueneisen + bulk viscosity)
+    with random velocities, as two bodies with identical materials: all elements in
+    body 0, or (``alternate``) every other one in body 1, so that no block of
+    pmpm.fem.lanes.LANES elements has a single body and every element goes through the
+    scalar path."""
+    from pmpm.materials.catalog import pack
+    rng = np.random.default_rng(5)
+    idx = np.arange((n + 1) ** 3).reshape(n + 1, n + 1, n + 1)
+    x = 0.5 * np.indices((n + 1,) * 3).reshape(3, -1).T
+    x += 0.04 * rng.uniform(-1, 1, x.shape)
+    i, j, k = np.indices((n, n, n)).reshape(3, -1)
+    hexes = np.stack([idx[i + a, j + b, k + c] for a, b, c in CORNERS.clip(0).astype(int)],
+                     axis=1).astype(np.int64)
+    v = np.array([0.0, 0.0, -190.0]) + 20.0 * rng.normal(size=x.shape)
+    code, row = pack({"model": "johnson_cook", "density": 8.93e-3, "E": 117.0e3, "nu": 0.35,
+                      "A": 157.0, "B": 425.0, "n": 1.0,
+                      "eos": {"type": "mie_gruneisen", "c0": 3940.0, "s": 1.49,
+                              "gamma0": 1.96},
+                      "bulk_viscosity": {"quadratic": 1.5, "linear": 0.06}})
+    m = len(hexes)
+    body = (np.arange(m) % 2 if alternate else np.zeros(m)).astype(np.int32)
+    bodies = BodyMaterials(np.array([code, code], np.int64), np.stack([row, row]),
+                           np.zeros(2, np.bool_))
+    state = MaterialState(np.zeros((m, 6)), np.tile(np.eye(3).ravel(), (m, 1)),
+                          np.full(m, row[layout.RHO0]), np.zeros(m), np.zeros(m),
+                          np.full(m, 293.0), np.zeros(m), np.zeros(m), np.zeros(m))
+    hg = Hourglass(np.array([kind, kind], np.int64), np.array([0.1, 0.1]), np.zeros((m, 12)),
+                   np.zeros(m))
+    return ElementMesh(x, v, hexes, body), state, bodies, hg
+
+
+@pytest.mark.parametrize("kind", [VISCOUS, STIFFNESS])
+def test_lane_blocks_give_the_scalar_paths_answers_to_the_bit(kind):
+    """Blocks of one body go lane by lane (SIMD, pmpm.fem.lanes), mixed blocks element by
+    element; both must do each element's arithmetic in the same order: forces, rates,
+    contributions, material state and hourglass columns over a few yielding steps equal
+    to the bit (7^3 = 343 elements: 21 full blocks and a partial one)."""
+    runs = []
+    for alternate in (False, True):
+        mesh, state, bodies, hg = copper_block(7, kind, alternate)
+        m = len(mesh.hexes)
+        outputs = []
+        for _ in range(4):
+            force, rates, parts = np.zeros_like(mesh.x), np.zeros(m), np.zeros((m, 8, 3))
+            rate, bad, why = element_forces(mesh, state, bodies, hg, 2e-5, force, rates,
+                                            parts)
+            assert bad == -1
+            outputs += [np.array([rate]), force, rates, parts]
+            mesh.x[:] += 2e-5 * mesh.v
+        runs.append(outputs + list(state) + [hg.resist, hg.energy])
+    assert runs[0][-1].max() > 0.0 and runs[0][4 * 4 + 3].max() > 0.0   # energy, eps_p
+    for lanes_path, scalar_path in zip(*runs):
+        assert np.array_equal(lanes_path, scalar_path)

@@ -37,6 +37,7 @@ from ..materials.tensors import fdiv
 from ..materials.layout import G
 from .assumed_strain import (assumed_strain_forces, elastic_fraction, element_frame,
                              plate_moduli)
+from . import lanes
 from .hexahedron import hourglass_shapes, largest_face_area, mean_gradient
 from .stability import ASSUMED_STRAIN, STIFFNESS, VISCOUS, stable_rate
 
@@ -64,6 +65,12 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contribu
     (n_elements, 8, 3), zeros, each element's nodal forces too (for sums over the
     nodes ranks share in element order, pmpm.comm.shared_nodes).
 
+    The elements go in blocks of pmpm.fem.lanes.LANES: a block of reduced elements of
+    one deformable body, none inverted, runs lane by lane (SIMD, :mod:`pmpm.fem.lanes`),
+    any other block element by element; both do each element's arithmetic in the same
+    order and add the element forces to ``force`` in element order, so the answers do
+    not depend on the blocks.
+
     Parameters
     ----------
     mesh : ElementMesh
@@ -87,68 +94,159 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contribu
     xe, ve, b = np.empty((8, 3)), np.empty((8, 3)), np.empty((8, 3))
     gamma, fe, Lg = np.empty((4, 8)), np.empty((8, 3)), np.empty((3, 3))
     frame, half, qd, dq = np.empty((3, 3)), np.ones(3), np.empty((4, 3)), np.empty((4, 3))
+    blk = lanes.new_block()
     rate, bad, why = 0.0, -1, NO_FAULT
-    for e in range(hexes.shape[0]):
-        bb = body[e]
-        if rigid[bb]:              # moves with its prescribed velocity: no stress, no force
-            continue
-        for k in range(8):
-            n = hexes[e, k]
-            for i in range(3):
-                xe[k, i] = x[n, i]
-                ve[k, i] = v[n, i]
-        volume = mean_gradient(xe, b)
-        if not volume > 0.0:
-            if bad < 0:
-                bad, why = e, NON_POSITIVE_VOLUME
-            if rates is not None:
-                rates[e] = np.inf
-            continue
-        inv_volume = fdiv(1.0, volume)      # no division with a raise path in the loop
-        length = volume * fdiv(1.0, largest_face_area(xe))
-        for i in range(3):
-            for j in range(3):
-                s = 0.0
-                for k in range(8):
-                    s += ve[k, i] * b[k, j]
-                Lg[i, j] = s * inv_volume
-        eps_old = eps_p[e]
-        c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F, rho,
-                                  eps_p, e_int, temp, q, damage, w_p)
-        if not c >= 0.0:
-            if bad < 0:
-                bad, why = e, FAILED_UPDATE
-            continue
-        stress_forces(stress, e, q[e], b, fe)
-        hourglass_shapes(xe, b, inv_volume, gamma)
-        if hg_kind[bb] == ASSUMED_STRAIN:
-            element_frame(xe, frame, half)
-        own = stable_rate(b, gamma, volume, length, rho[e], c, params[bb], hg_kind[bb],
-                          hg_coefficient[bb], Lg[0, 0] + Lg[1, 1] + Lg[2, 2], half)
-        rate = max(rate, own)
-        if rates is not None:
-            rates[e] = own
-        if hg_kind[bb] == ASSUMED_STRAIN:
-            hg_energy[e] += assumed_strain_forces(
-                e, ve, gamma, volume,
-                plate_moduli(rho[e], c, params[bb][G],
-                             elastic_fraction(Lg, dt, eps_p[e] - eps_old)),
-                frame, half, dt, resist, qd, dq, fe)
-        else:
-            if hg_kind[bb] == STIFFNESS:
-                rotate_resistance(resist, e, Lg, dt)
-            hg_energy[e] += hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho[e],
-                                             c, dt, hg_kind[bb], hg_coefficient[bb],
-                                             resist, fe)
-        for k in range(8):
-            n = hexes[e, k]
-            for i in range(3):
-                force[n, i] += fe[k, i]
-        if contributions is not None:
+    m = hexes.shape[0]
+    for e0 in range(0, m, lanes.LANES):
+        bb0 = body[e0]
+        if e0 + lanes.LANES <= m and _reduced_block(body, rigid, hg_kind, e0):
+            done, rate, bad, why = _block_forces(e0, blk, x, v, hexes, mat, codes[bb0],
+                                                 params[bb0], hg_kind[bb0],
+                                                 hg_coefficient[bb0], resist, hg_energy, dt,
+                                                 force, rates, contributions, Lg, rate, bad,
+                                                 why)
+            if done:
+                continue
+        for e in range(e0, min(e0 + lanes.LANES, m)):      # element by element
+            bb = body[e]
+            if rigid[bb]:          # moves with its prescribed velocity: no stress, no force
+                continue
             for k in range(8):
+                n = hexes[e, k]
                 for i in range(3):
-                    contributions[e, k, i] = fe[k, i]
+                    xe[k, i] = x[n, i]
+                    ve[k, i] = v[n, i]
+            volume = mean_gradient(xe, b)
+            if not volume > 0.0:
+                if bad < 0:
+                    bad, why = e, NON_POSITIVE_VOLUME
+                if rates is not None:
+                    rates[e] = np.inf
+                continue
+            inv_volume = fdiv(1.0, volume)      # no division with a raise path in the loop
+            length = volume * fdiv(1.0, largest_face_area(xe))
+            for i in range(3):
+                for j in range(3):
+                    s = 0.0
+                    for k in range(8):
+                        s += ve[k, i] * b[k, j]
+                    Lg[i, j] = s * inv_volume
+            eps_old = eps_p[e]
+            c = update_stress_columns(e, codes[bb], params[bb], dt, length, Lg, stress, F,
+                                      rho, eps_p, e_int, temp, q, damage, w_p)
+            if not c >= 0.0:
+                if bad < 0:
+                    bad, why = e, FAILED_UPDATE
+                continue
+            stress_forces(stress, e, q[e], b, fe)
+            hourglass_shapes(xe, b, inv_volume, gamma)
+            if hg_kind[bb] == ASSUMED_STRAIN:
+                element_frame(xe, frame, half)
+            own = stable_rate(b, gamma, volume, length, rho[e], c, params[bb], hg_kind[bb],
+                              hg_coefficient[bb], Lg[0, 0] + Lg[1, 1] + Lg[2, 2], half)
+            rate = max(rate, own)
+            if rates is not None:
+                rates[e] = own
+            if hg_kind[bb] == ASSUMED_STRAIN:
+                hg_energy[e] += assumed_strain_forces(
+                    e, ve, gamma, volume,
+                    plate_moduli(rho[e], c, params[bb][G],
+                                 elastic_fraction(Lg, dt, eps_p[e] - eps_old)),
+                    frame, half, dt, resist, qd, dq, fe)
+            else:
+                if hg_kind[bb] == STIFFNESS:
+                    rotate_resistance(resist, e, Lg, dt)
+                hg_energy[e] += hourglass_forces(e, ve, b, gamma, volume, inv_volume,
+                                                 rho[e], c, dt, hg_kind[bb],
+                                                 hg_coefficient[bb], resist, fe)
+            for k in range(8):
+                n = hexes[e, k]
+                for i in range(3):
+                    force[n, i] += fe[k, i]
+            if contributions is not None:
+                for k in range(8):
+                    for i in range(3):
+                        contributions[e, k, i] = fe[k, i]
     return rate, bad, why
+
+
+@njit(cache=True, inline="always")
+def _reduced_block(body, rigid, hg_kind, e0):
+    """Whether the LANES elements from e0 on are reduced elements (viscous or stiffness
+    hourglass form) of one deformable body."""
+    bb = body[e0]
+    if rigid[bb] or hg_kind[bb] == ASSUMED_STRAIN:
+        return False
+    for e in range(e0 + 1, e0 + lanes.LANES):
+        if body[e] != bb:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _block_forces(e0, blk, x, v, hexes, mat, code, prm, kind, coefficient, resist,
+                  energy, dt, force, rates, contributions, Lg, rate, bad, why):
+    """element_forces on the block of LANES reduced elements from e0 on, lane by lane;
+    returns (done, rate, bad, why), done False (and nothing changed) where an element of
+    the block is inverted: the block then goes element by element."""
+    stress, F, rho, eps_p, e_int, temp, q, damage, w_p = mat
+    lanes.gather(x, v, hexes, e0, blk.x, blk.v)
+    lanes.mean_gradients(blk.x, blk.b, blk.volume)
+    for l in range(lanes.LANES):
+        if not blk.volume[l] > 0.0:
+            return False, rate, bad, why
+    lanes.lengths(blk.x, blk.volume, blk.inv_volume, blk.length)
+    lanes.velocity_gradients(blk.v, blk.b, blk.inv_volume, blk.lg)
+    for l in range(lanes.LANES):            # the material update, element by element
+        e = e0 + l
+        for k in range(9):
+            Lg[k // 3, k % 3] = blk.lg[k * lanes.LANES + l]
+        c = update_stress_columns(e, code, prm, dt, blk.length[l], Lg, stress,
+                                  F, rho, eps_p, e_int, temp, q, damage, w_p)
+        blk.c[l], blk.rho[l], blk.ok[l] = c, rho[e], c >= 0.0
+        if not c >= 0.0 and bad < 0:
+            bad, why = e, FAILED_UPDATE
+        for i in range(6):
+            blk.sigma[i * lanes.LANES + l] = stress[e, i] - q[e] if i < 3 else stress[e, i]
+    lanes.stress_forces(blk.sigma, blk.b, blk.fe)
+    lanes.hourglass_shapes(blk.x, blk.b, blk.inv_volume, blk.gamma)
+    lanes.cube_roots(kind, blk.volume, blk.root, blk.root2)
+    lanes.stable_rates(blk, prm, kind, coefficient)
+    if kind == STIFFNESS:
+        for l in range(lanes.LANES):
+            for j in range(12):
+                blk.resist[j * lanes.LANES + l] = resist[e0 + l, j]
+        lanes.rotate_resistances(blk.resist, blk.lg, dt)
+    lanes.hourglass_forces(blk, dt, kind, coefficient)
+    for l in range(lanes.LANES):            # in element order, as element by element
+        if blk.ok[l]:
+            rate = _block_element_done(e0 + l, l, blk, kind == STIFFNESS, hexes, resist,
+                                       energy, force, rates, contributions, rate)
+    return True, rate, bad, why
+
+
+@njit(cache=True, inline="always")
+def _block_element_done(e, l, blk, stiffness, hexes, resist, energy, force, rates,
+                        contributions, rate):
+    """Lane l's element e of a block: its rate, stored hourglass forces and energy, and
+    its forces added to the nodes; returns the largest rate so far."""
+    own = blk.own[l]
+    rate = max(rate, own)
+    if rates is not None:
+        rates[e] = own
+    if stiffness:
+        for j in range(12):
+            resist[e, j] = blk.resist[j * lanes.LANES + l]
+    energy[e] += blk.work[l]
+    for k in range(8):
+        n = hexes[e, k]
+        for i in range(3):
+            force[n, i] += blk.fe[(3 * k + i) * lanes.LANES + l]
+    if contributions is not None:
+        for k in range(8):
+            for i in range(3):
+                contributions[e, k, i] = blk.fe[(3 * k + i) * lanes.LANES + l]
+    return rate
 
 
 @njit(cache=True, inline="always")
@@ -180,20 +278,29 @@ def hourglass_forces(e, ve, b, gamma, volume, inv_volume, rho, c, dt, kind, coef
         gain = 0.25 * coefficient * rho * c * np.cbrt(volume * volume)
     work = 0.0
     for a in range(4):
-        for i in range(3):
-            rate = 0.0
-            for k in range(8):
-                rate += ve[k, i] * gamma[a, k]
-            if kind == STIFFNESS:
-                old = resist[e, 3 * a + i]
-                generalized = old + gain * rate
-                resist[e, 3 * a + i] = generalized
-                work += 0.5 * (old + generalized) * rate
-            else:
-                generalized = gain * rate
-                work += generalized * rate
-            for k in range(8):
-                fe[k, i] -= generalized * gamma[a, k]
+        r0 = r1 = r2 = 0.0
+        for k in range(8):
+            r0 += ve[k, 0] * gamma[a, k]
+        for k in range(8):
+            r1 += ve[k, 1] * gamma[a, k]
+        for k in range(8):
+            r2 += ve[k, 2] * gamma[a, k]
+        if kind == STIFFNESS:
+            o0, o1, o2 = resist[e, 3 * a], resist[e, 3 * a + 1], resist[e, 3 * a + 2]
+            g0, g1, g2 = o0 + gain * r0, o1 + gain * r1, o2 + gain * r2
+            resist[e, 3 * a], resist[e, 3 * a + 1], resist[e, 3 * a + 2] = g0, g1, g2
+            work += 0.5 * (o0 + g0) * r0
+            work += 0.5 * (o1 + g1) * r1
+            work += 0.5 * (o2 + g2) * r2
+        else:
+            g0, g1, g2 = gain * r0, gain * r1, gain * r2
+            work += g0 * r0
+            work += g1 * r1
+            work += g2 * r2
+        for k in range(8):
+            fe[k, 0] -= g0 * gamma[a, k]
+            fe[k, 1] -= g1 * gamma[a, k]
+            fe[k, 2] -= g2 * gamma[a, k]
     return dt * work
 
 
