@@ -43,13 +43,18 @@ CONVERT = {
                           "an element converts when its volume falls to this fraction of "
                           "its initial volume (left out: only when it would invert)"),
     "step_ratio": Field(number(greater(0), at_most(1)), OMIT, "1",
-                        "an element converts when its stable time step, taken at its "
-                        "material's initial density and wave speed (so a measure of its "
-                        "shape: squeezed, sheared or hourglassed), falls to this fraction "
-                        "of the shortest such step of its body's elements at the start: "
-                        "erosion on the time step, so that one distorted element does not "
-                        "set a collapsing step for the whole run (left out: not on the "
-                        "step; the oblique perforation uses 0.2)"),
+                        "an element converts when its stable time step (as the force pass "
+                        "takes it) falls to this fraction of the background cell's step: "
+                        "the step at rest of an undistorted cube one grid.cell wide of the "
+                        "body's material and element (about cell / (1.8 c) with the "
+                        "viscous hourglass form), the step the grid costs the run anyway. "
+                        "Erosion on the time step: a squeezed, sheared or hourglassed "
+                        "element does not set a collapsing step for the whole run, and its "
+                        "particles run at the grid's step. The reference does not depend "
+                        "on the mesh, so neither does the shortest step an element may "
+                        "keep; an element finer than this fraction of the cell converts "
+                        "after the first step (a warning counts them). Left out: not on "
+                        "the step; the oblique perforation uses 0.2"),
     "particles_per_direction": Field(integer(at_least(1), at_most(MAX_CONVERT_DIVISIONS)), 2,
                                      "1", "an element becomes n^3 particles at the centres "
                                           "of its n^3 sub-cells (seed 004: 2, 8 particles)"),

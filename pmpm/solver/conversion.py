@@ -5,9 +5,10 @@ At the end of a step, after the points and the FE nodes have moved, an element o
 with ``fem.convert`` becomes n^3 particles of the same body when its plastic strain
 reaches ``convert.eps_p``, when its volume falls to ``convert.volume_ratio`` of its
 initial volume, when its stable step (as the last force pass took it: its shape, its
-current wave speed and viscosities) falls to ``convert.step_ratio`` of its body's
-shortest step at the start (at rest, the materials' initial wave speeds), or whenever it
-would invert (volume at most 0):
+current wave speed and viscosities) falls to ``convert.step_ratio`` of the background
+cell's step (:func:`cell_rates`: the step at rest of an undistorted cube of the body's
+material and element one coarse cell wide), or whenever it would invert (volume at most
+0):
 
 * the particles sit at the centres of the element's n^3 sub-cells in its natural
   coordinates, xi = (2a + 1)/n - 1, mapped by the element's trilinear shape functions
@@ -37,15 +38,30 @@ It is built from the registry (pmpm.solver.registry, ``bodies[i].fem.convert``:
 :func:`build_conversion`); the particle ids it reserves (``reserved_ids``) are kept out
 of the refined windows' splitting by the simulation.
 
+Why the cell's step is the reference of ``step_ratio``: the run's step is the shortest of the
+grid's (a wave crossing one coarse cell, the particles' CFL step) and the elements'. An
+element whose step falls far below the cell's makes every other part of the run pay for
+it; as particles its material runs at the grid's step. The reference is the same for
+every mesh of a body, so the criterion's floor, and the shortest step a run may keep,
+do not depend on how small the mesh's smallest element is (the ogive rod's flat tip is
+0.2 of its head element: a reference taken from the mesh made the 2.3 mm rod's floor
+five times lower than the 5.7 mm rod's; docs/validation/ogive_plate_fem.md). It is
+computed from the case alone, so it needs no reduction over the ranks and no checkpoint
+entry. An element already below the floor at the start (finer than the grid resolves:
+the 2.3 mm rod's 20 tip elements at 2 mm cells) converts after the first force pass.
+
 The converted element's hourglass energy stays in the energy balance (FemBodies keeps
 it, ``removed_hourglass``); the kinetic energy the nodes lose beyond what the particles
 take (the velocity field's variation over the element) is counted in ``kinetic_loss``.
 """
+import sys
+
 import numpy as np
 
 from ..case.fem import MAX_CONVERT_DIVISIONS
 from ..particles.store import COLUMNS, empty_column
 from .bodies import refinement
+from .fem_bodies import rates_at_rest
 from .transfer import ElementsToParticles, Transfer
 
 #: natural coordinates of the 8 nodes (VTK order, pmpm.fem.hexahedron)
@@ -114,20 +130,34 @@ class Conversion(Transfer):
         self.particles_per_cell = np.asarray(particles_per_cell, np.float64)
         self.converted = 0           # elements, over all ranks, since the start
         self.kinetic_loss = 0.0      # this rank's share
-        self.start_rates = self.initial_rates()
+        self.cell_rates = cell_rates(self.elements, self.cell) \
+            if self.rules.step_ratio.any() else np.zeros(len(self.rules.step_ratio))
+        self.warn_of_fine_elements()
 
-    def initial_rates(self):
-        """(nb,) per body the largest shape rate of its elements at their initial
-        positions (FemBodies.shape_rates), over all ranks: 1 / its shortest initial step
-        at cfl 1; zeros where no body converts on the step (collective)."""
-        nb = len(self.rules.step_ratio)
+    def warn_of_fine_elements(self):
+        """Print (rank 0) how many elements of each body start with a step already at
+        most ``step_ratio`` of the cell's: finer than the grid, they convert after the
+        first step (collective when some body converts on the step)."""
         if not self.rules.step_ratio.any():
-            return np.zeros(nb)
-        largest = np.zeros(nb)
+            return
         fem = self.elements
+        fine = np.zeros(len(self.cell_rates))
         if fem.n_elements:
-            np.maximum.at(largest, fem.body, fem.shape_rates(initial=True))
-        return self.world.max(largest)
+            limit = self.cell_rates[fem.body] / np.maximum(self.rules.step_ratio[fem.body],
+                                                           1e-300)
+            at_start = (self.rules.step_ratio[fem.body] > 0) & (self.cell_rates[fem.body] > 0) \
+                & (self.rules.divisions[fem.body] > 0) & (fem.shape_rates(initial=True) >= limit)
+            np.add.at(fine, fem.body, at_start.astype(np.float64))
+        fine = self.world.sum(fine)
+        for b in np.flatnonzero(fine > 0):
+            if self.world.is_root:
+                sys.stderr.write(
+                    f"pmpm: warning: body '{fem.names[b]}': {int(fine[b])} elements start "
+                    f"with a stable step at most fem.convert.step_ratio "
+                    f"({self.rules.step_ratio[b]:g}) of the cell's step "
+                    f"({1 / self.cell_rates[b]:.3g} at grid.cell {self.cell:g}); finer "
+                    f"than the grid, they convert after the first step\n")
+                sys.stderr.flush()
 
     @property
     def reserved_ids(self):
@@ -140,14 +170,13 @@ class Conversion(Transfer):
         hourglass, loss = self.world.sum(np.array([self.elements.removed_hourglass,
                                                    self.kinetic_loss]))
         return {"id_base": self.id_base, "converted": self.converted,
-                "hourglass": float(hourglass), "kinetic_loss": float(loss),
-                "start_rates": [float(r) for r in self.start_rates]}
+                "hourglass": float(hourglass), "kinetic_loss": float(loss)}
 
     def restore(self, state):
-        """Take a checkpoint's :meth:`state` (its energies on rank 0)."""
+        """Take a checkpoint's :meth:`state` (its energies on rank 0). The step
+        criterion's reference comes from the case (:func:`cell_rates`); the body's
+        shortest first step that earlier checkpoints kept (``start_rates``) is not read."""
         self.id_base, self.converted = int(state["id_base"]), int(state["converted"])
-        if "start_rates" in state:       # checkpoints before the step criterion: as found
-            self.start_rates = np.asarray(state["start_rates"], np.float64)
         if self.world.is_root:
             self.elements.removed_hourglass = float(state["hourglass"])
             self.kinetic_loss = float(state["kinetic_loss"])
@@ -173,10 +202,17 @@ class Conversion(Transfer):
             (fem.state.eps_p >= self.rules.eps_p[b])
             | (ratio <= self.rules.volume_ratio[b]) | (ratio <= 0.0))
         if self.rules.step_ratio.any():
-            limit = self.start_rates[b] / np.maximum(self.rules.step_ratio[b], 1e-300)
-            chosen |= (self.rules.step_ratio[b] > 0) & (self.rules.divisions[b] > 0) \
-                & (fem.step_rates() >= limit)
+            chosen |= self.on_the_step(b)
         return chosen
+
+    def on_the_step(self, b):
+        """Which of this rank's elements (of bodies ``b``) have a stable step at most
+        ``step_ratio`` of their body's cell step (their rate at least the cell's rate
+        over the ratio; none of a body without a wave speed, a rigid one)."""
+        ratio, reference = self.rules.step_ratio[b], self.cell_rates[b]
+        limit = reference / np.maximum(ratio, 1e-300)
+        return (ratio > 0) & (self.rules.divisions[b] > 0) & (reference > 0) \
+            & (self.elements.step_rates() >= limit)
 
     def particles_of(self, converted):
         """The particle columns of the elements ``converted`` (local indices)."""
@@ -209,6 +245,21 @@ class Conversion(Transfer):
         spacing = self.cell / self.particles_per_cell[columns["body"]]
         columns["refine"][:] = refinement(columns["vol0"], spacing)
         return columns
+
+
+def cell_rates(fem, cell):
+    """(nb,) per body the stable rate (1 / step at cfl 1) at rest of an undistorted cube
+    of edge ``cell`` with the body's material (initial density and wave speed) and
+    element formulation (its hourglass form and coefficient): the step criterion's
+    reference, the step an element as wide as the background cell would have
+    (pmpm.fem.stability; about 1.8 c / cell with the viscous hourglass form at 0.1).
+    0 for a body without a wave speed. The same on every rank and for every mesh."""
+    nb = len(fem.hourglass.kind)
+    cube = CORNERS * (0.5 * float(cell))
+    x = np.ascontiguousarray(np.tile(cube, (nb, 1)))
+    hexes = np.arange(8 * nb, dtype=np.int64).reshape(nb, 8)
+    return rates_at_rest(fem.table, x, hexes, np.arange(nb), fem.hourglass.kind,
+                         fem.hourglass.coefficient)
 
 
 def sub_cell_shapes(n):
