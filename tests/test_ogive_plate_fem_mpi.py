@@ -10,6 +10,16 @@ from test_conversion_mpi import comm_world, state
 from test_ogive_plate_fem import run, simulation
 
 
+def assert_same_rows(sims, world):
+    """The N-rank run's rows (by id) equal the 1-rank run's: ids exactly, values to
+    1e-10 of their largest."""
+    for n_rows, one_rows in zip(state(sims["n"], world), state(sims["one"], None)):
+        assert len(n_rows[0]) == len(one_rows[0]) > 0
+        assert (n_rows[0] == one_rows[0]).all()
+        for a, b in zip(n_rows[1:], one_rows[1:]):
+            assert np.abs(a - b).max() <= 1e-10 * max(np.abs(b).max(), 1.0)
+
+
 @pytest.mark.mpi(min_size=2)
 def test_n_ranks_give_the_one_rank_answer_through_the_perforation():
     world = comm_world()
@@ -18,11 +28,7 @@ def test_n_ranks_give_the_one_rank_answer_through_the_perforation():
     for sim in sims.values():
         run(sim, 0.025)
     assert sims["n"].conversion.converted == sims["one"].conversion.converted > 0
-    for n_rows, one_rows in zip(state(sims["n"], world), state(sims["one"], None)):
-        assert len(n_rows[0]) == len(one_rows[0]) > 0
-        assert (n_rows[0] == one_rows[0]).all()
-        for a, b in zip(n_rows[1:], one_rows[1:]):
-            assert np.abs(a - b).max() <= 1e-10 * max(np.abs(b).max(), 1.0)
+    assert_same_rows(sims, world)
     born = world.allgather(int(sims["n"].particles.n))
     assert min(born) > 0                      # conversions on every rank
 
@@ -40,10 +46,6 @@ def test_the_fine_rod_converts_its_tip_at_the_start_on_n_ranks_as_on_one():
         run(sim, 0.005)
     assert (sims["n"].conversion.cell_rates == sims["one"].conversion.cell_rates).all()
     assert sims["n"].conversion.converted == sims["one"].conversion.converted >= 160
-    for n_rows, one_rows in zip(state(sims["n"], world), state(sims["one"], None)):
-        assert len(n_rows[0]) == len(one_rows[0]) > 0
-        assert (n_rows[0] == one_rows[0]).all()
-        for a, b in zip(n_rows[1:], one_rows[1:]):
-            assert np.abs(a - b).max() <= 1e-10 * max(np.abs(b).max(), 1.0)
+    assert_same_rows(sims, world)
     born = world.allgather(int(sims["n"].particles.n))
     assert min(born) > 0                      # the tip's particles on every rank

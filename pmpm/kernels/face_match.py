@@ -46,38 +46,6 @@ def _same(ids, a, b):
 
 
 @njit(cache=True)
-def face_counts(gids, m0, m1, m2, m3):
-    """(n,) for each face (``gids``: (n, 4) global node ids, any order within a row) the
-    number of faces in ``gids`` with the same four nodes, itself included."""
-    ids = sorted_face_ids(gids)
-    n = ids.shape[0]
-    size = 1
-    while size < 2 * n + 2:
-        size *= 2
-    mask = np.uint64(size - 1)
-    table = np.full(size, -1, np.int64)    # the first face seen with each node set
-    first = np.empty(n, np.int64)
-    count = np.zeros(n, np.int64)
-    for f in range(n):
-        slot = _face_hash(ids, f, m0, m1, m2, m3) & mask
-        while True:
-            held = table[slot]
-            if held < 0:
-                table[slot] = f
-                first[f] = f
-                break
-            if _same(ids, held, f):
-                first[f] = held
-                break
-            slot = (slot + np.uint64(1)) & mask
-        count[first[f]] += 1
-    out = np.empty(n, np.int64)
-    for f in range(n):
-        out[f] = count[first[f]]
-    return out
-
-
-@njit(cache=True)
 def table_matches(query, table, m0, m1, m2, m3):
     """(nq,) for each face of ``query`` ((nq, 4) node ids) the number of faces of
     ``table`` ((nt, 4)) with the same four nodes."""
@@ -120,6 +88,7 @@ def matches_in(query, table):
 
 
 def matching_face_counts(gids):
-    """(n,) how many faces of ``gids`` ((n, 4) node ids) have each face's four nodes."""
+    """(n,) how many faces of ``gids`` ((n, 4) node ids) have each face's four nodes
+    (itself included): the faces matched against themselves."""
     gids = np.ascontiguousarray(gids, np.int64).reshape(-1, 4)
-    return face_counts(gids, *_MIX)
+    return table_matches(gids, gids, *_MIX)
