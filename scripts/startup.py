@@ -18,10 +18,12 @@ machine):
 The quick exits (``--help``, a missing case file, a misspelt key, an unknown material, a
 YAML syntax error) give the wall and CPU time of the whole command and check that it
 exits 2 (0 for --help) naming the key. The floors: a bare ``python``, ``import numpy``,
-``from mpi4py import MPI`` on 1 and 2 ranks (MPI_Init), what no change to pmpm can cut.
+``from mpi4py import MPI`` on 1 and 2 ranks (MPI_Init), as Open MPI starts by default
+and with the choices pmpm makes (pmpm.comm.launch).
 
 Usage: .venv/bin/python scripts/startup.py [--repeat 5] [--ranks 1 2] [--only NAME ...]
-                                           [--out results/startup] [--tree CHECKOUT]
+                                           [--out results/startup]
+                                           [--tree [TAG=]CHECKOUT ...]
 Run it once first (or scripts/setup.sh) so that the kernels are cached: the first run
 compiles them and is left out of nothing (every run is reported).
 """
@@ -64,6 +66,9 @@ FLOORS = {
     "python": ["-c", "pass"],
     "import_numpy": ["-c", "import numpy"],
     "import_mpi4py_MPI": ["-c", "from mpi4py import MPI"],
+    # with the Open MPI choices pmpm makes (pmpm.comm.launch)
+    "import_mpi4py_MPI_quick": ["-c", "from pmpm.comm.launch import quick_mpi_start\n"
+                                      "with quick_mpi_start():\n    from mpi4py import MPI"],
 }
 
 
@@ -77,18 +82,15 @@ def launch(args, ranks):
     return ["mpirun", "-n", str(ranks), "--oversubscribe"] + cmd if ranks > 1 else cmd
 
 
-#: the source tree whose pmpm runs (--tree: another checkout, for before/after runs
-#: interleaved in one sitting)
-TREE = ROOT
-
-
-def timed(cmd):
-    """Run ``cmd``; returns (exit status, wall seconds, CPU seconds of the command and
-    every process it waited for, output text, the launch's clock time)."""
+def timed(cmd, tree=ROOT):
+    """Run ``cmd`` in the source tree ``tree`` (its pmpm); returns (exit status, wall
+    seconds, CPU seconds of the command and every process it waited for, output text,
+    the launch's clock time)."""
     at = time.time()
     started = time.perf_counter()
     with tempfile.TemporaryFile() as sink:
-        process = subprocess.Popen(cmd, env=dict(ENV, PYTHONPATH=TREE), cwd=TREE, stdout=sink,
+        process = subprocess.Popen(cmd, env=dict(ENV, PYTHONPATH=tree), cwd=tree,
+                                   stdout=sink,
                                    stderr=subprocess.STDOUT)
         _, status, usage = os.wait4(process.pid, 0)
         wall = time.perf_counter() - started
@@ -98,12 +100,12 @@ def timed(cmd):
     return process.returncode, wall, usage.ru_utime + usage.ru_stime, text, at
 
 
-def run_case(name, ranks, out):
+def run_case(name, ranks, out, tree=ROOT):
     case, sets = CASES[name]
     args = ["-m", "pmpm", case, "--out", out, "--force", "--quiet"]
     for item in sets:
         args += ["--set", item]
-    status, wall, cpu, text, at = timed(launch(args, ranks))
+    status, wall, cpu, text, at = timed(launch(args, ranks), tree)
     if status != 0:
         raise SystemExit(f"{name} on {ranks} rank(s) failed ({status}):\n{text}")
     with open(os.path.join(out, "summary.json"), encoding="utf-8") as f:
@@ -115,10 +117,10 @@ def run_case(name, ranks, out):
             "compile_s": summary["compile_s"], "first_step_s": summary["first_step_s"]}
 
 
-def run_quick(name, syntax_file):
+def run_quick(name, syntax_file, tree=ROOT):
     args, expected, needle = QUICK[name]
     args = [syntax_file if a == "{syntax}" else a for a in args]
-    status, wall, cpu, text, _ = timed(launch(["-m", "pmpm"] + args, 1))
+    status, wall, cpu, text, _ = timed(launch(["-m", "pmpm"] + args, 1), tree)
     if status != expected or needle not in text:
         raise SystemExit(f"{name}: exit {status} (expected {expected}), output lacks "
                          f"{needle!r}:\n{text}")
@@ -137,16 +139,21 @@ def medians(runs):
 
 
 def measure(options, syntax_file):
-    """Every measurement ``options.repeat`` times, interleaved; {label: [runs]}."""
-    jobs = [(f"{name} {ranks}r", lambda n=name, r=ranks:
-             run_case(n, r, os.path.join(options.out, f"{n}_{r}")))
-            for ranks in options.ranks for name in CASES
-            if not options.only or name in options.only]
-    jobs += [(f"{name}", lambda n=name: run_quick(n, syntax_file)) for name in QUICK
-             if not options.only or name in options.only or "quick" in options.only]
+    """Every measurement ``options.repeat`` times for each tree, interleaved (each
+    repeat runs every job of every tree once); {label: [runs]}."""
+    wanted = options.only
+    jobs = []
+    for tag, tree in options.trees:
+        prefix = f"{tag}: " if len(options.trees) > 1 else ""
+        jobs += [(f"{prefix}{name} {ranks}r", lambda n=name, r=ranks, t=tree, p=tag:
+                  run_case(n, r, os.path.join(options.out, f"{p}_{n}_{r}"), t))
+                 for ranks in options.ranks for name in CASES
+                 if not wanted or name in wanted]
+        jobs += [(f"{prefix}{name}", lambda n=name, t=tree: run_quick(n, syntax_file, t))
+                 for name in QUICK if not wanted or name in wanted or "quick" in wanted]
     jobs += [(f"floor {name} {ranks}r", lambda n=name, r=ranks: run_floor(n, r))
              for name in FLOORS for ranks in options.ranks
-             if not options.only or "floors" in options.only]
+             if not wanted or "floors" in wanted]
     runs = {label: [] for label, _ in jobs}
     for k in range(options.repeat):
         for label, job in jobs:
@@ -184,11 +191,13 @@ def main():
     parser.add_argument("--only", nargs="+", default=[],
                         help="case or quick-exit names, 'quick' or 'floors'")
     parser.add_argument("--out", default=os.path.join(ROOT, "results", "startup"))
-    parser.add_argument("--tree", default=ROOT,
-                        help="run the pmpm of this source tree (default: this checkout)")
+    parser.add_argument("--tree", nargs="+", default=[ROOT], metavar="[TAG=]PATH",
+                        help="run the pmpm of these source trees, interleaved (default: "
+                             "this checkout), e.g. before=/tmp/base after=.")
     options = parser.parse_args()
-    global TREE
-    TREE = os.path.abspath(options.tree)
+    options.trees = [(item.partition("=")[0], os.path.abspath(item.partition("=")[2]))
+                     if "=" in item else (os.path.basename(os.path.abspath(item)),
+                                          os.path.abspath(item)) for item in options.tree]
     with tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False) as broken:
         broken.write(YAML_SYNTAX_ERROR)
     try:
@@ -197,7 +206,8 @@ def main():
         os.unlink(broken.name)
     save_json(os.path.join(options.out, "startup.json"),
               {"runs": runs, "medians": {label: medians(rows) for label, rows in runs.items()},
-               "repeat": options.repeat, "command": " ".join(sys.argv)})
+               "repeat": options.repeat, "command": " ".join(sys.argv),
+               "trees": dict(options.trees)})
     write_lines(os.path.join(options.out, "startup.md"), table(runs), echo=True)
 
 

@@ -40,8 +40,8 @@ PROBE = ("import os; from pmpm.comm.launch import quick_mpi_start\n"
 
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_mpi_starts_with_the_quick_choices(ranks):
-    """The choices start MPI and its collectives work (a singleton without its helper
-    daemon; ob1 between the ranks of one machine), and the environment is left as it
+    """The choices start MPI and its collectives work (ob1 with only the self transport
+    for a singleton, ob1 between the ranks of one machine), and the environment is left as it
     was (a singleton's btl=self inherited by an mpirun started later would cut its
     ranks off from each other)."""
     env = dict(os.environ, **ENV, PYTHONPATH=ROOT)
@@ -70,3 +70,28 @@ def test_the_startup_clock_counts_from_the_process_start():
     assert 0 < clock["cpu"] < clock["wall"]
     assert 0 <= clock["queued"] <= clock["wall"]
     assert clock["wall_less_queued"] == pytest.approx(clock["wall"] - clock["queued"])
+
+
+WRITER = ("import sys, time, h5py; from pmpm.comm import world; w = world()\n"
+          "for k in range(int(sys.argv[2])):\n"
+          "    with h5py.File(f'{sys.argv[1]}_{k}.h5', 'w', driver='mpio', comm=w.raw) as f:\n"
+          "        f['a'] = [k]\n"
+          "    time.sleep(0.03)\n")
+
+
+def test_singletons_side_by_side_write_without_complaint(tmp_path):
+    """Three 1-rank runs at once on one machine, one ending before the others, open HDF5
+    files through MPI-IO without an error line (an isolated singleton's shared session
+    folder, deleted by the first to end, made the others print one per file)."""
+    env = dict(os.environ, **ENV, PYTHONPATH=ROOT)
+    for name in ("OMPI_MCA_pml", "OMPI_MCA_btl", "OMPI_MCA_mtl"):
+        env.pop(name, None)
+    runs = [subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path / f"w{k}"),
+                              str(4 + 6 * k)], env=env, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True) for k in range(3)]
+    for run in runs:
+        out, err = run.communicate(timeout=120)
+        assert run.returncode == 0, err
+        assert err == "", err
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        f"w{k}_{j}.h5" for k in range(3) for j in range(4 + 6 * k))

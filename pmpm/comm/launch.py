@@ -2,12 +2,12 @@
 
 MPI_Init under Open MPI 4.1 (this machine: Debian's build with libfabric, PSM, PSM2 and
 UCX) spends 0.25-0.4 s of wall time, with some 0.05 s of CPU, probing for network
-hardware that one machine's ranks never use, and a process started without ``mpirun``
-(a singleton) also forks a helper daemon first. Choosing the ``ob1`` messaging layer
-(what Open MPI picks on one machine without UCX anyway, over shared memory) skips the
-probes: 0.04-0.15 s instead (docs/performance-notes.md, "Start-up"). Nothing a run
-computes changes: the layer carries the bytes, the reductions' order is the collective
-module's.
+hardware that one machine's ranks never use (a process started without ``mpirun``, a
+singleton, also forks a helper daemon). Choosing the ``ob1`` messaging layer (what Open
+MPI picks on one machine without UCX anyway, over shared memory) skips the probes:
+0.06-0.15 s on 2 ranks, about 0.2 s for a singleton (docs/performance-notes.md,
+"Start-up"). Nothing a run computes changes: the layer carries the bytes, the
+reductions' order is the collective module's.
 
 The choices are made only where they are safe and only when the user made none: a
 variable the environment already sets (any ``OMPI_MCA_pml``, ``OMPI_MCA_btl`` or
@@ -28,10 +28,12 @@ OTHER_LAUNCHERS = ("PMI_RANK", "SLURM_PROCID", "PMIX_RANK")
 #: a job of one or more ranks on one machine, launched by Open MPI's mpirun
 ONE_MACHINE = {"OMPI_MCA_pml": "ob1"}
 
-#: one process without a launcher: nothing to talk to but itself, no daemon to start
-#: (pmpm never spawns processes)
-SINGLETON = {"OMPI_MCA_pml": "ob1", "OMPI_MCA_btl": "self",
-             "OMPI_MCA_ess_singleton_isolated": "1"}
+#: one process without a launcher: nothing to talk to but itself. Its helper daemon
+#: stays (``ess_singleton_isolated`` would save 0.15 s more, but every isolated
+#: singleton on a machine shares one session folder, which the first to finish
+#: deletes under the others: their MPI-IO then falls back to lock files beside the
+#: output, with an error line per file opened)
+SINGLETON = {"OMPI_MCA_pml": "ob1", "OMPI_MCA_btl": "self"}
 
 
 def quick_start_settings(environ):
