@@ -107,9 +107,9 @@ def test_help_and_bad_input_stop_before_mpi_and_numba_load(tmp_path, kind):
     """Issue 25: --help and a bad input answer within 0.5 s. Starting MPI costs about
     0.4 s and importing numba 0.2 s, so neither may happen before the arguments and the
     case have been checked, nor h5py (0.05 s); the error names the key (measured with
-    scripts/startup.py: --help 0.05 s of CPU, a misspelt key, an unknown material 0.17 s,
-    a YAML syntax error 0.12 s, the wall time 1.5 times that on a loaded 2-core
-    machine)."""
+    scripts/startup.py: --help 0.04 s of CPU, a misspelt key or an unknown material
+    0.13 s, a YAML syntax error 0.12 s, the wall time about twice that at a load of 8 on
+    the 2-core machine)."""
     (tmp_path / "bad.yaml").write_text("bad: x\n")
     (tmp_path / "broken.yaml").write_text("title: broken\ngrid: {min: [0, 0, 0]\n")
     args, needle = QUICK_EXITS[kind]
