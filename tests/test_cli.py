@@ -90,21 +90,38 @@ def imported_modules(args):
     return done, names
 
 
-@pytest.mark.parametrize("kind", ["help", "argument error", "invalid case"])
+#: a bad input of each stage before MPI: (arguments, the text the error line must hold)
+QUICK_EXITS = {
+    "help": (["--help"], "usage:"),
+    "argument error": (["--bogus", BAR], "--bogus"),
+    "invalid case": (["{bad}"], "bad: unknown key"),
+    "misspelt key": ([BAR, "--set", "time.endd=1"], "time.endd: unknown key"),
+    "unknown material": ([BAR, "--set", "bodies[0].material=coper"],
+                         "bodies[0].material: unknown material 'coper'"),
+    "yaml syntax error": (["{broken}"], "YAML syntax error"),
+}
+
+
+@pytest.mark.parametrize("kind", list(QUICK_EXITS))
 def test_help_and_bad_input_stop_before_mpi_and_numba_load(tmp_path, kind):
     """Issue 25: --help and a bad input answer within 0.5 s. Starting MPI costs about
     0.4 s and importing numba 0.2 s, so neither may happen before the arguments and the
-    case have been checked (measured: --help 0.26 s, an invalid case 0.65 s on a loaded
-    2-core machine, 0.08 and 0.19 s of CPU)."""
-    bad = tmp_path / "bad.yaml"
-    bad.write_text("bad: x\n")
-    args = {"help": ["--help"], "argument error": ["--bogus", BAR],
-            "invalid case": [bad]}[kind]
+    case have been checked, nor h5py (0.05 s); the error names the key (measured with
+    scripts/startup.py: --help 0.04 s of CPU, a misspelt key or an unknown material
+    0.13 s, a YAML syntax error 0.12 s, the wall time about twice that at a load of 8 on
+    the 2-core machine)."""
+    (tmp_path / "bad.yaml").write_text("bad: x\n")
+    (tmp_path / "broken.yaml").write_text("title: broken\ngrid: {min: [0, 0, 0]\n")
+    args, needle = QUICK_EXITS[kind]
+    args = [str(tmp_path / "bad.yaml") if a == "{bad}" else
+            str(tmp_path / "broken.yaml") if a == "{broken}" else a for a in args]
     done, names = imported_modules(args)
     assert done.returncode == (0 if kind == "help" else 2), done.stderr[-2000:]
+    assert needle in (done.stdout if kind == "help" else done.stderr)
     assert "pmpm.__main__" in names or "pmpm" in names
     assert "mpi4py.MPI" not in names
     assert "numba" not in names
+    assert "h5py" not in names
 
 
 @pytest.mark.parametrize("ranks", RANKS)
@@ -163,6 +180,10 @@ def check_summary(summary, ranks):
     assert summary["t_end"] == pytest.approx(0.005, rel=1e-12)
     for key in ("wall_s", "compile_s", "particle_steps_per_s"):
         assert isinstance(summary[key], float) and summary[key] >= 0, key
+    startup = summary["startup_s"]      # process start to the first step (issue 25)
+    assert 0 < startup["wall_less_queued"] <= startup["wall"]
+    assert 0 < startup["cpu"] and 0 <= startup["queued"] <= startup["wall"]
+    assert startup["wall"] >= summary["compile_s"] * 0.99   # it holds the kernels' load
     # every step counts (the warm-up compiled the kernels before the first)
     assert summary["particle_steps_per_s"] == pytest.approx(
         624 * 48 / summary["step_wall_s"], rel=1e-12)

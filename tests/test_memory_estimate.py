@@ -14,7 +14,8 @@ from pmpm.case import CaseError, load_case
 from pmpm.case.errors import Problems
 from pmpm.case.fill import fill_geometry
 from pmpm.case.hexmesh import hex_mesh
-from pmpm.case.size import ELEMENT_PARTICLES, case_estimate, check_memory
+from pmpm.case.size import (ELEMENT_PARTICLES, case_estimate, check_memory, needed_bytes,
+                             upper_bound)
 
 TAYLOR = os.path.join(ROOT, "runs", "taylor_bar.yaml")
 CASES = sorted(glob.glob(os.path.join(ROOT, "runs", "*.yaml"))
@@ -35,6 +36,24 @@ def test_the_estimate_is_within_10_percent_of_the_filled_count(path):
         real = len(fill_geometry(body["geometry"], case["grid"], body["particles_per_cell"],
                                  case_dir)[0])
         assert counts[i] == pytest.approx(real, rel=0.10), (body["name"], counts[i], real)
+
+
+@pytest.mark.parametrize("path", CASES, ids=os.path.basename)
+def test_the_quick_bound_is_never_below_the_estimate(path):
+    """check_memory passes a case on upper_bound alone (no sampling, issue 25) only
+    where the estimate would pass it too: the bound is never below the estimate, and
+    where no bound is given a file must be read."""
+    case = load_case(path)
+    bodies = dict(enumerate(case["bodies"]))
+    counts, nodes = case_estimate(bodies, case["grid"], os.path.dirname(path))
+    bound = upper_bound(bodies, case["grid"])
+    if bound is None:
+        assert any(body["geometry"]["type"] in ("mesh", "surface", "points")
+                   for body in case["bodies"]), path
+        return
+    assert bound[0] >= sum(counts.values()) * (1 - 1e-12)
+    assert bound[1] >= nodes * (1 - 1e-12)
+    assert needed_bytes(*bound, 2) >= needed_bytes(sum(counts.values()), nodes, 2)
 
 
 @pytest.mark.parametrize("ranks", [1, 2])

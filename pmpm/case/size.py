@@ -267,20 +267,70 @@ def case_estimate(bodies, grid, case_dir="."):
     return counts, nodes
 
 
+#: the geometries whose volume :func:`shape_volume` gives exactly, without a file
+ANALYTIC = ("box", "cylinder", "sphere", "ogive", "prism")
+
+
+def upper_bound(bodies, grid):
+    """(particles, grid nodes) no fewer than :func:`case_estimate` gives, without its
+    samples (some 0.05 s a body, every start; issue 25): each particle body's exact
+    volume (a union's or difference's bounding box) at the density of the finest
+    window, the nodes over the bodies' bounding boxes. None where a body's file would
+    have to be read (mesh, surface and point files, meshed FEM bodies) or the bound is
+    not finite. FEM bodies count as :func:`fem_estimate` counts them."""
+    finest = max([1] + [window["ratio"] for window in windows_of(grid)])
+    total, boxes = 0.0, []
+    try:
+        with np.errstate(all="ignore"):
+            for body in bodies.values():
+                geometry = body["geometry"]
+                if geometry["type"] not in ANALYTIC + CSG:
+                    return None
+                if body.get("method") == "fem":
+                    count, box = fem_estimate(body, grid, ".")
+                else:
+                    count, box = _shape_bound(geometry, body["particles_per_cell"] *
+                                              finest / grid["cell"])
+                total += count
+                if box is not None:
+                    boxes.append(box)
+            nodes = grid_nodes(grid, boxes)
+    except OverflowError:
+        return None
+    return (total, nodes) if math.isfinite(total) and math.isfinite(nodes) else None
+
+
+def _shape_bound(geometry, per_length):
+    """(the particles of an analytic geometry at ``per_length`` particles per unit
+    length or more, the box around its turned bounding box)."""
+    lo, hi = (np.asarray(b, float) for b in make_shape(geometry).bounds())
+    volume = shape_volume(geometry) if geometry["type"] in ANALYTIC else \
+        float(np.prod(hi - lo))
+    corners = np.array([[(lo, hi)[k >> a & 1][a] for a in range(3)] for k in range(8)])
+    if geometry.get("rotate"):
+        corners = rotate_points(corners, geometry["rotate"])
+    return volume * per_length ** 3, (corners.min(axis=0), corners.max(axis=0))
+
+
 def check_memory(bodies, grid, limit_gb, case_dir, problems, ranks=None, available=None):
     """Add one problem, naming the keys that set the size, when the case's estimated
     memory exceeds ``limit_gb`` (decomposition.memory_limit_gb) or else this machine's
     available memory. Returns True when the case fits (the bodies may then be filled)."""
-    counts, nodes = case_estimate(bodies, grid, case_dir)
-    particles = float(sum(counts.values()))
     ranks = local_ranks() if ranks is None else ranks
-    needed = needed_bytes(particles, nodes, ranks)
     if limit_gb is not None:
         limit, source = limit_gb * 1e9, f"decomposition.memory_limit_gb = {limit_gb:g}"
     else:
         limit = available_bytes() if available is None else available
         source = f"the {_bytes(limit or 0)} this machine has available"
-    if limit is None or needed <= limit:
+    if limit is None:
+        return True
+    bound = upper_bound(bodies, grid)
+    if bound is not None and needed_bytes(*bound, ranks) <= limit:
+        return True                 # surely fits: no sample (issue 25, start-up)
+    counts, nodes = case_estimate(bodies, grid, case_dir)
+    particles = float(sum(counts.values()))
+    needed = needed_bytes(particles, nodes, ranks)
+    if needed <= limit:
         return True
     largest = max(counts, key=counts.get)
     ppc = bodies[largest]["particles_per_cell"]

@@ -54,12 +54,15 @@ class World:
     Parameters
     ----------
     raw : mpi4py communicator, optional
-        Defaults to ``MPI.COMM_WORLD``; MPI is initialised on first construction.
+        Defaults to ``MPI.COMM_WORLD``; MPI is initialised on first construction,
+        quickly where the ranks share a machine (pmpm.comm.launch).
     """
 
     def __init__(self, raw=None):
         if raw is None:
-            from mpi4py import MPI
+            from .launch import quick_mpi_start
+            with quick_mpi_start():
+                from mpi4py import MPI
             raw = MPI.COMM_WORLD
         self.raw = raw
         self.rank = raw.Get_rank()

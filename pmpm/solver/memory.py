@@ -1,7 +1,6 @@
 """Resident memory of this process (Linux), for the summary's memory figures, and the
 allocator setting that hands freed particle columns back to the system."""
 import ctypes
-import ctypes.util
 import os
 import resource
 
@@ -18,10 +17,9 @@ def return_freed_memory_to_os():
     old block in the heap, where the next copy may not fit, and the resident size grows
     by about a store's worth over the run (Taylor bar at 0.38 mm: 570 bytes per particle
     against 437 with the threshold held). Returns True where the setting took (glibc)."""
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name) if name else None
-        return bool(libc and libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD))
+    try:        # the process's own symbols, libc's among them: ctypes.util.find_library
+        libc = ctypes.CDLL(None)    # would run ldconfig, 30 ms of every start (issue 25)
+        return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD))
     except (OSError, AttributeError):
         return False
 

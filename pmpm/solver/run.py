@@ -17,6 +17,7 @@ from .interrupt import RunInterrupted, received, signal_name
 from .memory import memory_summary
 from .probes import COLUMNS as PROBE_COLUMNS, Probes
 from .progress import Progress
+from .startup import since_process_start
 
 SORT_EVERY = 20
 
@@ -133,6 +134,8 @@ class Runner:
         self.world.traffic.reset()          # what the steps send, not the set-up
         self.loop_first_step = self.sim.step_count
         self.progress.start(self.sim.time, self.particle_steps, self.element_steps)
+        self.startup = since_process_start()    # frame 0 written, the first step next
+        self.started_at = clock.time()          # against a launcher's clock (startup.py)
         dt = 0.0
         while self.sim.time < self.end * (1 - 1e-12):
             dt = self.next_dt()
@@ -382,6 +385,7 @@ class Runner:
             "n_steps": sim.step_count, "t_end": sim.time,
             "wall_s": self.wall_s, "step_wall_s": self.step_wall,
             "compile_s": self.compile_s, "first_step_s": self.first_step_s or 0.0,
+            "startup_s": self.startup_summary(),
             "particle_steps_per_s": self.rate(),
             "particle_steps_per_s_per_rank": self.rate() / self.world.size,
             "particles_lost": int(sim.lost),
@@ -397,6 +401,16 @@ class Runner:
             **self.sim.contact_summary(),
             "communication": self.communication_summary(),
         }
+
+    def startup_summary(self):
+        """Seconds from process start to the first step of this process's loop (wall, CPU
+        and waiting for a core: pmpm.solver.startup), the slowest rank's (collective):
+        imports, MPI, kernels, set-up, frame 0; ``at``: rank 0's clock then."""
+        mine = getattr(self, "startup", {})
+        summary = {key: self.world.max(-1.0 if mine.get(key) is None else mine[key])
+                   for key in ("wall", "cpu", "queued", "wall_less_queued")}
+        summary["at"] = getattr(self, "started_at", None)
+        return summary
 
     def communication_summary(self):
         """What a rank sent per step of this process's loop (the frames, history rows and
