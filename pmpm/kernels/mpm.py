@@ -501,10 +501,13 @@ def sort_nearly_sorted(keys, order, most_moves):
 
 
 @njit(cache=True)
-def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner):
+def classify_particles(x, origin, inv_h, n_cells, axis, bounds, rank, owner):
     """Owner rank of every particle (-1 when it left the grid box). Returns the number
-    outside."""
+    outside and the number inside that ``rank`` does not own (those that move), counted
+    in the same pass over ``x`` (counting them afterwards from ``owner`` took three array
+    passes, 3 ns a particle-step at the end of the bar's step)."""
     outside = 0
+    moving = 0
     n_ranks = bounds.shape[0] - 1
     for p in range(x.shape[0]):
         c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
@@ -520,7 +523,8 @@ def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner):
         while r < n_ranks - 1 and c >= bounds[r + 1]:
             r += 1
         owner[p] = r
-    return outside
+        moving += r != rank
+    return outside, moving
 
 
 @njit(cache=True)

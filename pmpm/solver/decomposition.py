@@ -66,8 +66,10 @@ class Decomposition:
         Alltoallv only when some point changes rank. Raises the first rank's ``fault``
         on every rank. Returns the fastest speed over all ranks."""
         owners = [np.empty(k.n, np.int64) for k in kinds]
-        outside = [k.classify(self.grid, self.slabs, o) for k, o in zip(kinds, owners)]
-        moving = [np.count_nonzero((o != self.world.rank) & (o >= 0)) for o in owners]
+        counts = [k.classify(self.grid, self.slabs, self.world.rank, o)
+                  for k, o in zip(kinds, owners)]
+        outside = [c[0] for c in counts]
+        moving = [c[1] for c in counts]
         head = [fastest, 1.0 if fault else 0.0]
         local = np.concatenate([head, outside, moving, self.spans(kinds)]).astype(np.float64)
         glob = self.world.max(local)

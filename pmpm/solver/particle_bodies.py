@@ -247,10 +247,11 @@ class ParticleBodies(BodyKind):
         return load_power_terms(p.load, p.load_scale, p.v, vectors)
 
     # -- ownership ---------------------------------------------------------------------
-    def classify(self, grid, slabs, owner):
-        """Owner rank of each particle (-1: left the grid box); returns how many left."""
+    def classify(self, grid, slabs, rank, owner):
+        """Owner rank of each particle (-1: left the grid box); returns how many left and
+        how many of the others ``rank`` does not own."""
         return mpm.classify_particles(self.particles.x, grid.origin, 1.0 / grid.h,
-                                      grid.n_cells, slabs.axis, slabs.bounds, owner)
+                                      grid.n_cells, slabs.axis, slabs.bounds, rank, owner)
 
     def slab_cells(self, grid, axis):
         return grid.cells_of(self.particles.x)[:, axis]
