@@ -123,6 +123,8 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
     mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), 0,
                            owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))
+    mpm.owners_and_spans(x, level, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64),
+                         0, ratios, np.ones(1), owner, np.zeros(6))
     if ties:
         warm_up_ties(pts, geo, block, nodal)
     boundary.fill_face_codes(shape, lo, strides, n_cells, block.boundary, block.friction,
