@@ -500,34 +500,33 @@ def sort_nearly_sorted(keys, order, most_moves):
     return True
 
 
-@njit(cache=True, forceinline=True)
-def owner_of(x, p, origin, inv_h, n_cells, axis, bounds):
-    """The rank whose slab holds particle ``p``'s cell along ``axis``; -1 when the
-    particle left the grid box."""
-    c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
-    c1 = np.floor((x[p, 1] - origin[1]) * inv_h)
-    c2 = np.floor((x[p, 2] - origin[2]) * inv_h)
-    if (c0 < 0 or c1 < 0 or c2 < 0 or c0 >= n_cells[0] or c1 >= n_cells[1]
-            or c2 >= n_cells[2]):
-        return -1
-    c = (c0, c1, c2)[axis]
-    r = 0
-    while r < bounds.shape[0] - 2 and c >= bounds[r + 1]:
-        r += 1
-    return r
-
-
 @njit(cache=True)
 def classify_particles(x, origin, inv_h, n_cells, axis, bounds, rank, owner):
     """Owner rank of every particle (-1 when it left the grid box). Returns the number
-    outside and the number inside that ``rank`` does not own (those that move)."""
+    outside and the number inside that ``rank`` does not own (those that move).
+
+    Notes
+    -----
+    :func:`owners_and_spans` repeats this loop's body: as a ``forceinline`` helper it ran
+    at 21 ns a particle instead of 1.4."""
     outside = 0
     moving = 0
+    n_ranks = bounds.shape[0] - 1
     for p in range(x.shape[0]):
-        r = owner_of(x, p, origin, inv_h, n_cells, axis, bounds)
+        c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
+        c1 = np.floor((x[p, 1] - origin[1]) * inv_h)
+        c2 = np.floor((x[p, 2] - origin[2]) * inv_h)
+        if (c0 < 0 or c1 < 0 or c2 < 0 or c0 >= n_cells[0] or c1 >= n_cells[1]
+                or c2 >= n_cells[2]):
+            owner[p] = -1
+            outside += 1
+            continue
+        c = (c0, c1, c2)[axis]
+        r = 0
+        while r < n_ranks - 1 and c >= bounds[r + 1]:
+            r += 1
         owner[p] = r
-        outside += r < 0
-        moving += r >= 0 and r != rank
+        moving += r != rank
     return outside, moving
 
 
@@ -575,15 +574,26 @@ def owners_and_spans(x, level, origin, inv_h, n_cells, axis, bounds, rank, ratio
     count, NumPy on ``owner``, 3.0 ns a particle-step on the bar)."""
     outside = 0
     moving = 0
+    n_ranks = bounds.shape[0] - 1
     for lv in range(span.shape[0] // 6):
         ih, top = inv_hs[lv], n_cells * ratios[lv] - 1.0
         lo0 = lo1 = lo2 = hi0 = hi1 = hi2 = -(2.0 ** 62)
         for p in range(x.shape[0]):
-            if lv == 0:
-                r = owner_of(x, p, origin, inv_h, n_cells, axis, bounds)
+            if lv == 0:             # classify_particles' loop body
+                c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
+                c1 = np.floor((x[p, 1] - origin[1]) * inv_h)
+                c2 = np.floor((x[p, 2] - origin[2]) * inv_h)
+                if (c0 < 0 or c1 < 0 or c2 < 0 or c0 >= n_cells[0] or c1 >= n_cells[1]
+                        or c2 >= n_cells[2]):
+                    owner[p] = -1
+                    outside += 1
+                    continue
+                c = (c0, c1, c2)[axis]
+                r = 0
+                while r < n_ranks - 1 and c >= bounds[r + 1]:
+                    r += 1
                 owner[p] = r
-                outside += r < 0
-                moving += r >= 0 and r != rank
+                moving += r != rank
             if level[p] != lv or owner[p] < 0:
                 continue
             c0 = min(np.floor((x[p, 0] - origin[0]) * ih), top[0])
