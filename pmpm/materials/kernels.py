@@ -78,9 +78,9 @@ __all__ = ["update_stress", "wave_speed", "bulk_viscosity", "mie_gruneisen_press
            "jaumann_rotate", "deviator", "neo_hookean_stress", "neo_hookean_wave_speed"]
 
 ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-# A trial stress with (q_trial / sy0)^2 below this is elastic by plastic_increment's own
-# test (q_trial - sy0 <= 1e-11 q_trial) whatever the round-off of the square root (a
-# relative 1e-16): such a step skips the square root (see plastic_step).
+# A trial stress with (q_trial / sy0)^2 below this (sy0 > 0) is elastic by
+# plastic_increment's own test (q_trial - sy0 <= 1e-11 q_trial) whatever the round-off of
+# the square root (a relative 1e-16): such a step skips the square root (plastic_step).
 SURELY_ELASTIC = 1.0 - 1e-9
 if N_SLOTS != 31:
     raise ImportError("update_stress reads a parameter row of 31 slots: update it with layout")
@@ -278,7 +278,7 @@ def plastic_step(s_trial, g, eps0, temp0, dam0, wp0, dt, rho_mid, p_old, prm):
     theta = thermal_factor(prm[M], temp0, prm[T_ROOM], prm[T_MELT])
     q2 = 1.5 * double_dot(s_trial, s_trial)
     sy0 = theta * hardening(prm[A], prm[B], prm[N], eps0)
-    elastic = q2 < SURELY_ELASTIC * (sy0 * sy0)
+    elastic = sy0 > 0.0 and q2 < SURELY_ELASTIC * (sy0 * sy0)
     if elastic:         # plastic_increment's elastic answer, without the square root
         q_trial, dlam, sigma_y, ratio, ok = 0.0, 0.0, sy0, 1.0, True
     else:
