@@ -152,3 +152,52 @@ def test_a_halo_widens_the_block_and_shares_three_planes_around_a_slab_plane():
     assert blocks[1].shared_planes == [(0, (0, 3)), (2, (4, 7))]     # 2..4 and 6..8
     assert blocks[2].shared_planes == [(1, (0, 3))]                  # nodes 6, 7, 8
     assert all(list(b.lo[1:]) == [-1, -1] and list(b.shape[1:]) == [8, 8] for b in blocks)
+
+
+def owners_and_spans_reference(x, level, origin, inv_h, n_cells, bounds, rank, ratios,
+                               inv_hs):
+    """Owners, counts and spans the slow way: per particle, in NumPy."""
+    cells = np.floor((x - origin) * inv_h)
+    inside = np.all((cells >= 0) & (cells < n_cells), axis=1)
+    owner = np.where(inside, np.searchsorted(bounds[1:-1], cells[:, 0], side="right"), -1)
+    span = np.full(6 * len(ratios), -(2.0 ** 62))
+    for lv in range(len(ratios)):
+        mine = inside & (level == lv)
+        if mine.any():
+            c = np.minimum(np.floor((x[mine] - origin) * inv_hs[lv]),
+                           n_cells * ratios[lv] - 1.0)
+            span[6 * lv:6 * lv + 3] = (-c).max(axis=0)
+            span[6 * lv + 3:6 * lv + 6] = c.max(axis=0)
+    moving = np.count_nonzero((owner >= 0) & (owner != rank))
+    return owner, np.count_nonzero(owner < 0), moving, span
+
+
+@pytest.mark.parametrize("n_levels", [1, 2])
+def test_owners_and_spans_are_classify_and_level_spans_in_one_pass(n_levels):
+    """The end of the step's fused pass gives the owners, the counts outside and moving,
+    and the spans of classify_particles and level_spans (and of a NumPy reference), with
+    points outside the box and on two levels."""
+    rng = np.random.default_rng(3)
+    origin, h = np.array([-1.0, 0.0, 0.5]), 0.25
+    n_cells = np.array([16.0, 8.0, 12.0])
+    x = origin + rng.uniform(-0.5, 1.1, (500, 3)) * n_cells * h
+    level = (rng.uniform(size=500) < 0.4).astype(np.int32) if n_levels == 2 else \
+        np.zeros(500, np.int32)
+    ratios = np.array([1, 2][:n_levels], np.int64)
+    inv_hs = 1.0 / h * ratios.astype(np.float64)
+    bounds = np.array([0, 5, 11, 16], np.int64)
+    for rank in range(3):
+        owner, span = np.empty(500, np.int64), np.empty(6 * n_levels)
+        outside, moving = mpm.owners_and_spans(x, level, origin, 1.0 / h, n_cells, 0, bounds,
+                                               rank, ratios, inv_hs, owner, span)
+        owner1, span1 = np.empty(500, np.int64), np.empty(6 * n_levels)
+        counts1 = mpm.classify_particles(x, origin, 1.0 / h, n_cells, 0, bounds, rank, owner1)
+        mpm.level_spans(x, level, origin, 1.0 / h, n_cells, ratios, inv_hs, span1)
+        ref_owner, ref_outside, ref_moving, ref_span = owners_and_spans_reference(
+            x, level, origin, 1.0 / h, n_cells, bounds, rank, ratios, inv_hs)
+        assert 0 < outside < 500 and 0 < moving < 500 - outside
+        assert (outside, moving) == counts1 == (ref_outside, ref_moving)
+        np.testing.assert_array_equal(owner, owner1)
+        np.testing.assert_array_equal(owner, ref_owner)
+        np.testing.assert_array_equal(span, span1)
+        np.testing.assert_array_equal(span, ref_span)

@@ -638,3 +638,29 @@ def test_update_stress_is_one_function_without_heap_or_reference_counting():
     assert not called & {"NRT_incref", "NRT_decref"}, called
     assert all(name.startswith("llvm.") or name in ("sqrt", "pow", "log") for name in called), \
         called
+
+
+def test_plastic_step_skips_the_square_root_only_where_the_step_is_elastic():
+    """plastic_step decides "surely elastic" from q_trial^2 without the square root; on
+    both sides of the yield surface, down to relative 1e-13 from it, its deviator, factor
+    and plastic strain are those of plastic_increment's own test on the von Mises stress."""
+    from pmpm.materials.kernels import plastic_step
+    from pmpm.materials.tensors import scale, von_mises
+    _, prm = catalog.pack(material("johnson_cook", COPPER, A=157.0, B=425.0, n=1.0))
+    row = tuple(float(v) for v in prm)
+    G = prm[L.G]
+    shape = (0.3, -0.5, 0.2, 0.1, -0.25, 0.05)
+    for eps0 in (0.0, 0.2):
+        sy0 = 157.0 + 425.0 * eps0
+        for rel in (-1e-6, -1e-9, -5e-10, -1e-10, -1e-11, -1e-13, 0.0, 1e-13, 1e-11, 1e-9,
+                    1e-6, 0.1):
+            s_trial = scale(shape, sy0 * (1.0 + rel) / von_mises(shape))
+            s, factor, eps1 = plastic_step(s_trial, G, eps0, 293.0, 0.0, 0.0, 1e-4,
+                                           prm[L.RHO0], 0.0, row)[:3]
+            q = von_mises(s_trial)
+            dlam, sy, ratio, ok = plastic_increment(q, G, eps0, 1e-4, 157.0, 425.0, 1.0, 0.0,
+                                                    prm[L.EPS_DOT0], 1.0)
+            want = s_trial if q <= sy else scale(s_trial, ratio)
+            assert ok and s == want and factor == (1.0 if q <= sy else ratio)
+            assert eps1 == eps0 + dlam
+            assert abs(rel) < 1e-9 or (dlam > 0.0) == (rel > 0.0)

@@ -501,10 +501,16 @@ def sort_nearly_sorted(keys, order, most_moves):
 
 
 @njit(cache=True)
-def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner):
+def classify_particles(x, origin, inv_h, n_cells, axis, bounds, rank, owner):
     """Owner rank of every particle (-1 when it left the grid box). Returns the number
-    outside."""
+    outside and the number inside that ``rank`` does not own (those that move).
+
+    Notes
+    -----
+    :func:`owners_and_spans` repeats this loop's body: as a ``forceinline`` helper it ran
+    at 21 ns a particle instead of 1.4."""
     outside = 0
+    moving = 0
     n_ranks = bounds.shape[0] - 1
     for p in range(x.shape[0]):
         c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
@@ -520,7 +526,8 @@ def classify_particles(x, origin, inv_h, n_cells, axis, bounds, owner):
         while r < n_ranks - 1 and c >= bounds[r + 1]:
             r += 1
         owner[p] = r
-    return outside
+        moving += r != rank
+    return outside, moving
 
 
 @njit(cache=True)
@@ -551,3 +558,49 @@ def level_spans(x, level, origin, inv_h, n_cells, ratios, inv_hs, span):
             hi0, hi1, hi2 = max(hi0, c0), max(hi1, c1), max(hi2, c2)
         span[6 * lv], span[6 * lv + 1], span[6 * lv + 2] = lo0, lo1, lo2
         span[6 * lv + 3], span[6 * lv + 4], span[6 * lv + 5] = hi0, hi1, hi2
+
+
+@njit(cache=True)
+def owners_and_spans(x, level, origin, inv_h, n_cells, axis, bounds, rank, ratios, inv_hs,
+                     owner, span):
+    """:func:`classify_particles` and :func:`level_spans` in one pass over ``x`` for the
+    first level (so one pass in all on a grid without refined windows), and a pass for
+    each other level that takes the outside test from ``owner``: the same owners, counts
+    and spans. Returns (outside, moving).
+
+    Notes
+    -----
+    The end of the step read x three times before (owners 4.9, spans 3.3 and the moving
+    count, NumPy on ``owner``, 3.0 ns a particle-step on the bar)."""
+    outside = 0
+    moving = 0
+    n_ranks = bounds.shape[0] - 1
+    for lv in range(span.shape[0] // 6):
+        ih, top = inv_hs[lv], n_cells * ratios[lv] - 1.0
+        lo0 = lo1 = lo2 = hi0 = hi1 = hi2 = -(2.0 ** 62)
+        for p in range(x.shape[0]):
+            if lv == 0:             # classify_particles' loop body
+                c0 = np.floor((x[p, 0] - origin[0]) * inv_h)
+                c1 = np.floor((x[p, 1] - origin[1]) * inv_h)
+                c2 = np.floor((x[p, 2] - origin[2]) * inv_h)
+                if (c0 < 0 or c1 < 0 or c2 < 0 or c0 >= n_cells[0] or c1 >= n_cells[1]
+                        or c2 >= n_cells[2]):
+                    owner[p] = -1
+                    outside += 1
+                    continue
+                c = (c0, c1, c2)[axis]
+                r = 0
+                while r < n_ranks - 1 and c >= bounds[r + 1]:
+                    r += 1
+                owner[p] = r
+                moving += r != rank
+            if level[p] != lv or owner[p] < 0:
+                continue
+            c0 = min(np.floor((x[p, 0] - origin[0]) * ih), top[0])
+            c1 = min(np.floor((x[p, 1] - origin[1]) * ih), top[1])
+            c2 = min(np.floor((x[p, 2] - origin[2]) * ih), top[2])
+            lo0, lo1, lo2 = max(lo0, -c0), max(lo1, -c1), max(lo2, -c2)
+            hi0, hi1, hi2 = max(hi0, c0), max(hi1, c1), max(hi2, c2)
+        span[6 * lv], span[6 * lv + 1], span[6 * lv + 2] = lo0, lo1, lo2
+        span[6 * lv + 3], span[6 * lv + 4], span[6 * lv + 5] = hi0, hi1, hi2
+    return outside, moving

@@ -120,8 +120,11 @@ def warm_up(shape_code=LINEAR, apic=False, contact=True, ties=True, mirrors=True
         exact_sum.add_rows(exact_sum.zeros(1), 0, np.zeros((1, 1)))
         exact_sum.carry_all(exact_sum.zeros(1))
     owner, ratios = np.zeros(1, np.int64), np.ones(1, np.int64)
-    mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), owner)
+    mpm.classify_particles(x, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64), 0,
+                           owner)
     mpm.level_spans(x, level, geo.origin, 1.0, n_cells, ratios, np.ones(1), np.zeros(6))
+    mpm.owners_and_spans(x, level, geo.origin, 1.0, n_cells, 0, np.array([0, 1], np.int64),
+                         0, ratios, np.ones(1), owner, np.zeros(6))
     if ties:
         warm_up_ties(pts, geo, block, nodal)
     boundary.fill_face_codes(shape, lo, strides, n_cells, block.boundary, block.friction,

@@ -50,8 +50,12 @@ class Decomposition:
     def spans(self, kinds):
         """Per level, (-lowest, highest) cell of every kind's points (max over kinds)."""
         self.assign_levels(kinds)
-        spans = [self.grids.spans(self.grid, k.particles.x, k.level_of) for k in kinds]
-        spans += [source.spans(self.grids, self.grid) for source in self.span_sources]
+        return self.with_sources([self.grids.spans(self.grid, k.particles.x, k.level_of)
+                                  for k in kinds])
+
+    def with_sources(self, spans):
+        """The kinds' ``spans`` and those of the other points (span_sources), reduced."""
+        spans = spans + [source.spans(self.grids, self.grid) for source in self.span_sources]
         return np.maximum.reduce(spans)
 
     def update_cell_ranges(self, kinds):
@@ -66,10 +70,14 @@ class Decomposition:
         Alltoallv only when some point changes rank. Raises the first rank's ``fault``
         on every rank. Returns the fastest speed over all ranks."""
         owners = [np.empty(k.n, np.int64) for k in kinds]
-        outside = [k.classify(self.grid, self.slabs, o) for k, o in zip(kinds, owners)]
-        moving = [np.count_nonzero((o != self.world.rank) & (o >= 0)) for o in owners]
+        self.assign_levels(kinds)
+        ends = [k.owners_and_spans(self.grids, self.grid, self.slabs, self.world.rank, o)
+                for k, o in zip(kinds, owners)]
+        outside = [e[0] for e in ends]
+        moving = [e[1] for e in ends]
+        spans = self.with_sources([e[2] for e in ends])
         head = [fastest, 1.0 if fault else 0.0]
-        local = np.concatenate([head, outside, moving, self.spans(kinds)]).astype(np.float64)
+        local = np.concatenate([head, outside, moving, spans]).astype(np.float64)
         glob = self.world.max(local)
         if glob[1] > 0:
             raise SolverError(self.world.first_message(fault))

@@ -117,7 +117,7 @@ class FemGridNodes(BodyKind):
         g, slabs = self.grid, self.decomposition.slabs
         owner = np.empty(len(x), np.int64)
         mpm.classify_particles(x, g.origin, 1.0 / g.h, g.n_cells, slabs.axis, slabs.bounds,
-                               owner)
+                               self.world.rank, owner)
         return owner
 
     def gather(self):

@@ -29,7 +29,7 @@ class BodyKind:
         are summed, ``move(dt)`` once the grid has updated the points; its ``speed`` is
         its part of the step's fastest speed
     follows_slabs : its points take grid levels, move to the rank of their slab every
-        step and split in refined windows (``classify``, ``assign_levels``,
+        step and split in refined windows (``owners_and_spans``, ``assign_levels``,
         ``split_entering``, ``sort_by_cell``: the particles)
     rebalances : it moves to the ranks of the new slabs when the decomposition
         rebalances (``migrate(grid, slabs)``), and weighs in the balance by

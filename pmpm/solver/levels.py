@@ -246,12 +246,26 @@ class Hierarchy:
         """Per level, (-lowest, highest) level cell of the points ``x`` (on levels
         ``level_of``) inside the grid box: float64 (n_levels * 6,), for one MAX
         reduction over ranks."""
-        ratios = np.array([lv.ratio for lv in self.levels], np.int64)
-        inv_hs = np.array([lv.inv_h for lv in self.levels])
-        span = np.empty(6 * len(self.levels))
+        ratios, inv_hs, span = self.span_arrays()
         mpm.level_spans(x, level_of, grid.origin, 1.0 / grid.h, grid.n_cells, ratios,
                         inv_hs, span)
         return span
+
+    def owners_and_spans(self, grid, slabs, rank, x, level_of, owner):
+        """:meth:`spans` and each point's owner rank (into ``owner``, -1: left the grid
+        box) in one pass over ``x`` (``mpm.owners_and_spans``). Returns (number outside,
+        number inside that ``rank`` does not own, spans)."""
+        ratios, inv_hs, span = self.span_arrays()
+        outside, moving = mpm.owners_and_spans(x, level_of, grid.origin, 1.0 / grid.h,
+                                               grid.n_cells, slabs.axis, slabs.bounds, rank,
+                                               ratios, inv_hs, owner, span)
+        return outside, moving, span
+
+    def span_arrays(self):
+        """Each level's ratio and 1 / cell size, and an empty span row (6 per level)."""
+        ratios = np.array([lv.ratio for lv in self.levels], np.int64)
+        inv_hs = np.array([lv.inv_h for lv in self.levels])
+        return ratios, inv_hs, np.empty(6 * len(self.levels))
 
 
 def cell_ranges(spans):

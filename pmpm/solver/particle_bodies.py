@@ -247,10 +247,12 @@ class ParticleBodies(BodyKind):
         return load_power_terms(p.load, p.load_scale, p.v, vectors)
 
     # -- ownership ---------------------------------------------------------------------
-    def classify(self, grid, slabs, owner):
-        """Owner rank of each particle (-1: left the grid box); returns how many left."""
-        return mpm.classify_particles(self.particles.x, grid.origin, 1.0 / grid.h,
-                                      grid.n_cells, slabs.axis, slabs.bounds, owner)
+    def owners_and_spans(self, grids, grid, slabs, rank, owner):
+        """Owner rank of each particle (into ``owner``, -1: left the grid box) and the
+        spans of the levels (``assign_levels`` first), in one pass over x; returns how
+        many left, how many of the others ``rank`` does not own, and the spans."""
+        return grids.owners_and_spans(grid, slabs, rank, self.particles.x, self.level_of,
+                                      owner)
 
     def slab_cells(self, grid, axis):
         return grid.cells_of(self.particles.x)[:, axis]
