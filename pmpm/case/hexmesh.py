@@ -157,8 +157,8 @@ def ogive_mesh(geometry, element_size):
     from .shapes import Ogive
     shape = Ogive(geometry)
     n, shank_layers, nose_layers = (int(c) for c in ogive_counts(geometry, element_size))
-    t_cap = cap_start(shape, n, element_size)
-    stations = ogive_stations(shape, shank_layers, nose_layers - n // 2, t_cap)
+    t_cap, swept = swept_nose(shape, n, element_size)
+    stations = ogive_stations(shape, shank_layers, int(swept), t_cap)
     points, hexes = swept_disc(n, stations, lambda s: ogive_radius(shape, s))
     cap_points, cap_hexes = nose_cap(n, shape, stations[-1])
     points, hexes = join_cap(n, points, hexes, cap_points, cap_hexes)
@@ -179,10 +179,19 @@ def ogive_counts(geometry, element_size):
         n += np.fmod(n, 2.0)
         shank = shape.length - shape.nose
         shank_layers = max(np.rint(shank / size), 1.0) if shank > 1e-9 * shape.length else 0.0
-        t_cap = cap_start(shape, n, size)
-        swept = max(np.rint(nose_grading(shape, t_cap)[1][-1] / size), 1.0) if t_cap > 0 \
-            else 0.0
+        swept = swept_nose(shape, n, size)[1]
     return n, shank_layers, swept + n / 2
+
+
+def swept_nose(shape, n, element_size):
+    """(t_cap, layers): the swept disc's part of the nose, from the nose's start to the
+    cap's base t_cap (:func:`cap_start`), in round(G(t_cap) / size) graded layers. Where
+    that rounds to none (a nose whose elements are already CAP_WIDTH of the size or
+    less near its start: a blunt one, or coarse elements) the cap takes the whole nose,
+    t_cap = 0, rather than leave a sliver of a layer."""
+    t_cap = cap_start(shape, n, element_size)
+    layers = np.rint(nose_grading(shape, t_cap)[1][-1] / element_size) if t_cap > 0 else 0.0
+    return (t_cap, layers) if layers >= 1 else (0.0, 0.0)
 
 
 def cap_radius(shape, n, element_size):
