@@ -50,29 +50,29 @@ EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
          (0, 4), (1, 5), (2, 6), (3, 7)]
 
 
-@pytest.mark.parametrize("size, elements", [(2.3, 1296), (3.8, 336), (5.7, 60)])
+@pytest.mark.parametrize("size, elements", [(2.3, 1152), (3.8, 320), (5.7, 56)])
 def test_the_seed_rod_mesh_is_sound_at_its_three_sizes(size, elements):
-    """Volume within 0.6 % of the analytical (the sections' facets are made up by
-    facet_scale; what is left is the chords between layers and the cap's facets: -0.09,
-    -0.37, -0.49 %), every corner Jacobian at least 1/20 of the element's mean (V / 8;
-    the cap's four elements at the cube's corners have three faces on the nose's surface,
-    0.066 at 2.3 mm), the element count the case check predicts (seed's Table 4:
+    """Volume within 1 % of the analytical (the sections' facets are made up by
+    facet_scale; what is left is the chords between layers and the cap's facets: -0.27,
+    -0.58, -0.83 %), every corner Jacobian at least a tenth of the element's mean (V / 8;
+    the cap's four elements at the cube's corners have three faces on the nose's surface:
+    0.13 at 2.3 mm), the element count the case check predicts (seed's Table 4:
     12,200 / 2,268 / 944: its 'head size' is not an edge, see the report)."""
     points, hexes = hex_mesh(ROD, size)
     assert len(hexes) == elements == element_count(ROD, size)
     v = volumes(points, hexes)
-    assert abs(v.sum() / shape_volume(ROD) - 1) < 0.006
+    assert abs(v.sum() / shape_volume(ROD) - 1) < 0.01
     worst = (corner_jacobians(points, hexes) / (v[:, None] / 8)).min()
-    assert worst > 0.05
+    assert worst > 0.1
     assert len(np.unique(hexes)) == len(points)            # no loose node
 
 
 @pytest.mark.parametrize("size", [2.3, 3.8, 5.7])
 def test_the_nose_elements_keep_their_size_to_the_tip(size):
-    """No edge of an element of the nose is shorter than 0.35 of the element size (0.39,
-    0.43, 0.45 measured; the flat-tipped mesh before the cap had 0.15, 0.13, 0.18: its
-    tip elements were 0.2 of the head element), and none longer than 2.5 times it (1.9,
-    2.1, 1.7: the cap's n/2 shells reach from its base's centre to the point); the
+    """No edge of an element of the nose is shorter than half the element size (0.56,
+    0.53, 0.61 measured; the flat-tipped mesh before the cap had 0.15, 0.13, 0.18: its
+    tip elements were 0.2 of the head element), and none longer than 3.5 times it (3.1,
+    2.8, 2.4: the cap's n/2 shells reach from its base's centre to the point); the
     swept disc ends at the section where its n elements across are CAP_WIDTH of the
     size (2 r / n)."""
     points, hexes = hex_mesh(ROD, size)
@@ -82,8 +82,8 @@ def test_the_nose_elements_keep_their_size_to_the_tip(size):
     shape = Ogive(ROD)
     nose = corners[:, :, 2].mean(axis=1) > shape.length - shape.nose
     assert nose.sum() > 0
-    assert edges[nose].min() > 0.35 * size
-    assert edges[nose].max() < 2.5 * size
+    assert edges[nose].min() > 0.5 * size
+    assert edges[nose].max() < 3.5 * size
     n = int(ogive_counts(ROD, size)[0])
     assert 2 * cap_radius(shape, n, size) / n == pytest.approx(
         min(CAP_WIDTH * size, 2 * shape.radius / n))

@@ -1,7 +1,8 @@
 """Hexahedral meshes of FEM bodies: a structured mesh of a box, a cylinder (O-grid; a tube
-in polar blocks), a sphere (cubed sphere), an ogive (a swept O-grid closed by a
-half cubed ball at its pointed tip) or a prism (its section's blocks), or the hexahedra of a mesh file meshio
-reads; then the body's ``rotate``. Node order is VTK's (pmpm.fem.hexahedron).
+in polar blocks), a sphere (cubed sphere), an ogive (a swept O-grid closed by a half
+cubed ball at its pointed tip) or a prism (its section's blocks), or the hexahedra of a
+mesh file meshio reads; then the body's ``rotate``. Node order is VTK's
+(pmpm.fem.hexahedron).
 
 Plain numpy: an element is refused when its Jacobian at the centre is not positive
 (inverted, or collapsed to no volume), so that the solver never starts on one.
@@ -115,8 +116,11 @@ def cylinder_mesh(base, axis, radius, length, inner_radius, element_size):
 
 
 #: Where the ogive's swept disc ends and its cap begins: the section at which the
-#: disc's elements (2 r / n wide) are this share of the element size (see :func:`ogive_mesh`).
-CAP_WIDTH = 0.8
+#: disc's elements (2 r / n wide) are this share of the element size (:func:`ogive_mesh`;
+#: at 1 the cap takes most or all of the nose: 0.8 left the 2.3 mm rod's cap corners at
+#: 0.39 of a 2 mm cell's step, and its run 1.5 times the 5.7 mm rod's steps; 1 gives
+#: 0.53 and the same steps; docs/validation/ogive_plate_fem.md).
+CAP_WIDTH = 1.0
 #: Sample points of the nose profile for the graded layers' spacing and the cap's
 #: meridian.
 PROFILE_SAMPLES = 2001
@@ -146,8 +150,11 @@ def ogive_mesh(geometry, element_size):
     its tip elements were 0.2 of the head element, and their stable step the shortest
     of the run; docs/validation/ogive_plate_fem.md, "A nose mesh that keeps its element
     size"). In the cap the n elements across span the whole remaining nose, so none is
-    much narrower than the cap's section over n. Blocks of fewer elements joined by
-    transition layers are what a hexahedral mesh would otherwise need.
+    much narrower than the cap's section over n (the shortest nose edge is 0.53-0.61 of
+    the size for the seed's rods). The price: the cap has n/2 elements from its base's
+    centre to the point, so along the axis its elements are longer than the size (up to
+    3.1 times for the 2.3 mm rod, whose whole nose is the cap). Blocks of fewer elements
+    joined by transition layers are what a hexahedral mesh would otherwise need.
 
     Every surface node lies on the ogive once scaled across the axis by
     :func:`facet_scale`, which gives each faceted section the area of its circle, so the
@@ -190,7 +197,8 @@ def swept_nose(shape, n, element_size):
     less near its start: a blunt one, or coarse elements) the cap takes the whole nose,
     t_cap = 0, rather than leave a sliver of a layer."""
     t_cap = cap_start(shape, n, element_size)
-    layers = np.rint(nose_grading(shape, t_cap)[1][-1] / element_size) if t_cap > 0 else 0.0
+    layers = np.rint(nose_grading(shape, t_cap)[1][-1] / element_size) if t_cap > 0 \
+        else 0.0
     return (t_cap, layers) if layers >= 1 else (0.0, 0.0)
 
 
@@ -263,8 +271,8 @@ def nose_cap(n, shape, s_base):
     Along the meridian the cap has n elements (n/2 on a side block, n/2 on the top
     block), spread by arc length from rim to point, so no element shrinks into the
     point. The four elements at the box's upper corners have three faces on the
-    surface: their corner Jacobians are the mesh's smallest (1/15 of their mean at 2.3
-    mm), still positive because the nose is convex."""
+    surface: their corner Jacobians are the mesh's smallest (0.13 of their mean at 2.3
+    mm, 0.037 at 20 elements across), still positive because the nose is convex."""
     box, hexes = box_mesh([-1.0, -1.0, 0.0], [1.0, 1.0, 1.0], [n, n, n // 2])
     ball = ball_map(box, 1.0)
     d = np.linalg.norm(ball, axis=1)

@@ -48,8 +48,8 @@ before its mesh got a cap, was 0.2 of its head element: a reference taken from t
 made the 2.3 mm rod's floor five times lower than the 5.7 mm rod's;
 docs/validation/ogive_plate_fem.md). It is computed from the case alone, so it needs no
 reduction over the ranks and no checkpoint entry. An element already below the floor at
-the start (finer than the grid resolves: the 2.3 mm rod's cap's four corner elements at
-4 mm cells) converts after the first force pass.
+the start (finer than the grid resolves: the 2.3 mm rod's 20 flat-tip elements at 2 mm
+cells, before its mesh had a cap) converts after the first force pass.
 
 The converted element's hourglass energy stays in the energy balance (FemBodies keeps
 it, ``removed_hourglass``); the kinetic energy the nodes lose beyond what the particles
