@@ -1,7 +1,8 @@
 """Hexahedral meshes of FEM bodies: a structured mesh of a box, a cylinder (O-grid; a tube
-in polar blocks), a sphere (cubed sphere), an ogive (a swept O-grid with a small flat
-tip) or a prism (its section's blocks), or the hexahedra of a mesh file meshio
-reads; then the body's ``rotate``. Node order is VTK's (pmpm.fem.hexahedron).
+in polar blocks), a sphere (cubed sphere), an ogive (a swept O-grid closed by a half
+cubed ball at its pointed tip) or a prism (its section's blocks), or the hexahedra of a
+mesh file meshio reads; then the body's ``rotate``. Node order is VTK's
+(pmpm.fem.hexahedron).
 
 Plain numpy: an element is refused when its Jacobian at the centre is not positive
 (inverted, or collapsed to no volume), so that the solver never starts on one.
@@ -114,45 +115,69 @@ def cylinder_mesh(base, axis, radius, length, inner_radius, element_size):
     return np.asarray(base, float) + points, hexes
 
 
-#: The ogive's flat tip: the nose is cut at the section of this fraction of the shank
-#: radius (see :func:`ogive_mesh`).
-TIP_RADIUS = 0.2
-#: Sample points of the nose profile for the graded layers' spacing.
+#: Where the ogive's swept disc ends and its cap begins: the section at which the
+#: disc's elements (2 r / n wide) are this share of the element size (:func:`ogive_mesh`;
+#: at 1 the cap takes most or all of the nose: 0.8 left the 2.3 mm rod's cap corners at
+#: 0.39 of a 2 mm cell's step, and its run 1.5 times the 5.7 mm rod's steps; 1 gives
+#: 0.53 and the same steps; docs/validation/ogive_plate_fem.md).
+CAP_WIDTH = 1.0
+#: Sample points of the nose profile for the graded layers' spacing and the cap's
+#: meridian.
 PROFILE_SAMPLES = 2001
 
 
 def ogive_mesh(geometry, element_size):
     """(points, hexes) of a validated ``ogive`` geometry (a shank with a tangent-ogive
-    nose, pmpm.case.shapes.Ogive).
+    nose, pmpm.case.shapes.Ogive), pointed, its elements kept near ``element_size``
+    down to the tip.
 
-    The solid cylinder's O-grid disc of ``across(diameter)`` elements is swept along the
-    axis s (base 0), scaled to the local radius r(s): over the shank in round(shank /
-    size) layers, over the nose in layers graded as r(s) (the disc's elements narrow with
-    the radius, so the layers thin too and the elements keep their shape), down to a
-    small flat tip, the section of radius TIP_RADIUS R. Why a flat tip: a tip collapsed
-    to a point makes the last layer's hexahedra degenerate, with zero Jacobians at their
-    tip corners; a cubed-sphere cap keeps the tip pointed but its edge elements have two
-    faces on the nearly straight ogive meridian, folded almost flat (corner Jacobians
-    under 1 % of the mean). The tip elements are TIP_RADIUS times narrower than the
-    shank's (the stable step shrinks as much); the cut takes off the last
-    nose_length - t(r_tip) of the length (2.1 mm of a 3-CRH, 12.9 mm rod) and 0.04 % of
-    its volume. Every surface node lies on the ogive once scaled across the axis by
+    Two parts, in the frame (u, v, s) of the axis (base s = 0):
+
+    * the swept disc (:func:`swept_disc`): the solid cylinder's O-grid disc of n =
+      ``across(diameter)`` elements across, scaled to the local radius r(s), over the
+      shank in round(shank / size) layers and over the nose in layers graded as r(s)
+      (:func:`nose_grading`: as the disc's elements narrow with the radius the layers
+      thin too, so the elements keep their shape), down to the section of radius
+      r_c (:func:`cap_radius`) where the disc's elements are CAP_WIDTH of the size;
+    * the cap (:func:`nose_cap`): the upper half of the cubed ball of n elements across
+      (:func:`ball_map` of a box of n x n x n/2 elements, whose base is the same O-grid
+      disc), each direction of the unit hemisphere taken to the point of the ogive's
+      meridian at the same share of its arc from the rim to the point, distances from
+      the base's centre kept as shares: n x n x n/2 elements down to the pointed tip.
+
+    Why: a disc that keeps its n elements across down to a tip makes the tip's elements
+    as small as the tip's section over n (the earlier mesh cut the nose flat at 0.2 R:
+    its tip elements were 0.2 of the head element, and their stable step the shortest
+    of the run; docs/validation/ogive_plate_fem.md, "A nose mesh that keeps its element
+    size"). In the cap the n elements across span the whole remaining nose, so none is
+    much narrower than the cap's section over n (the shortest nose edge is 0.53-0.61 of
+    the size for the seed's rods). The price: the cap has n/2 elements from its base's
+    centre to the point, so along the axis its elements are longer than the size (up to
+    3.1 times for the 2.3 mm rod, whose whole nose is the cap). Blocks of fewer elements
+    joined by transition layers are what a hexahedral mesh would otherwise need.
+
+    Every surface node lies on the ogive once scaled across the axis by
     :func:`facet_scale`, which gives each faceted section the area of its circle, so the
-    mesh weighs what the ogive does (10 % light at two elements across without it).
-    Then direction (the disc's frame is any right-handed one about it) and base or tip
-    place it."""
+    mesh weighs what the ogive does (10 % light at two elements across without it). Then
+    direction (the disc's frame is any right-handed one about it) and base or tip place
+    it."""
     from .shapes import Ogive
     shape = Ogive(geometry)
     n, shank_layers, nose_layers = (int(c) for c in ogive_counts(geometry, element_size))
-    stations = ogive_stations(shape, shank_layers, nose_layers)
+    t_cap, swept = swept_nose(shape, n, element_size)
+    stations = ogive_stations(shape, shank_layers, int(swept), t_cap)
     points, hexes = swept_disc(n, stations, lambda s: ogive_radius(shape, s))
+    cap_points, cap_hexes = nose_cap(n, shape, stations[-1])
+    points, hexes = join_cap(n, points, hexes, cap_points, cap_hexes)
     points[:, :2] *= facet_scale(4 * n)
     return shape.base + points @ axis_frame(shape.axis).T, hexes
 
 
 def ogive_counts(geometry, element_size):
-    """(elements across, shank layers, nose layers) of :func:`ogive_mesh`, as floats (a
-    huge count is refused by the caller, before any array is made)."""
+    """(elements across n, shank layers, nose layers) of :func:`ogive_mesh`, as floats (a
+    huge count is refused by the caller, before any array is made). The nose's count
+    takes the cap's n x n x n/2 elements as n/2 layers, so that n^2 (shank + nose) is the
+    mesh's element count."""
     from .shapes import Ogive
     shape = Ogive(geometry)
     size = np.float64(element_size)
@@ -161,14 +186,39 @@ def ogive_counts(geometry, element_size):
         n += np.fmod(n, 2.0)
         shank = shape.length - shape.nose
         shank_layers = max(np.rint(shank / size), 1.0) if shank > 1e-9 * shape.length else 0.0
-        nose_layers = max(np.rint(nose_grading(shape)[1][-1] / size), 1.0)
-    return n, shank_layers, nose_layers
+        swept = swept_nose(shape, n, size)[1]
+    return n, shank_layers, swept + n / 2
 
 
-def nose_grading(shape):
-    """(t, G): G(t) = integral of R / r(t) from the nose's start to t, up to the flat tip:
-    layers G / size apart are as thick as the local element is wide."""
-    t = np.linspace(0.0, tip_start(shape), PROFILE_SAMPLES)
+def swept_nose(shape, n, element_size):
+    """(t_cap, layers): the swept disc's part of the nose, from the nose's start to the
+    cap's base t_cap (:func:`cap_start`), in round(G(t_cap) / size) graded layers. Where
+    that rounds to none (a nose whose elements are already CAP_WIDTH of the size or
+    less near its start: a blunt one, or coarse elements) the cap takes the whole nose,
+    t_cap = 0, rather than leave a sliver of a layer."""
+    t_cap = cap_start(shape, n, element_size)
+    layers = np.rint(nose_grading(shape, t_cap)[1][-1] / element_size) if t_cap > 0 \
+        else 0.0
+    return (t_cap, layers) if layers >= 1 else (0.0, 0.0)
+
+
+def cap_radius(shape, n, element_size):
+    """The radius of the section where the swept disc ends: its n elements across are
+    CAP_WIDTH of ``element_size`` wide there (2 r / n), at most the shank's radius."""
+    return float(min(CAP_WIDTH * element_size * n / 2.0, shape.radius))
+
+
+def cap_start(shape, n, element_size):
+    """Distance from the nose's start to the cap's base, the section of radius
+    :func:`cap_radius` (the profile inverted: t = sqrt(rho^2 - (r + rho - R)^2))."""
+    r = cap_radius(shape, n, element_size)
+    return float(np.sqrt(max(shape.rho ** 2 - (r + shape.rho - shape.radius) ** 2, 0.0)))
+
+
+def nose_grading(shape, end):
+    """(t, G): G(t) = integral of R / r(t) from the nose's start to t <= ``end``, short of
+    the tip: layers G / size apart are as thick as the local element is wide."""
+    t = np.linspace(0.0, end, PROFILE_SAMPLES)
     inverse = shape.radius / nose_profile(shape, t)
     steps = np.diff(t) * (inverse[1:] + inverse[:-1]) / 2
     return t, np.concatenate([[0.0], np.cumsum(steps)])
@@ -180,24 +230,20 @@ def nose_profile(shape, t):
     return np.clip(y - (shape.rho - shape.radius), 0.0, None)
 
 
-def tip_start(shape):
-    """Distance from the nose's start to the flat tip, its section of radius TIP_RADIUS R
-    (the profile inverted: t = sqrt(rho^2 - (r + rho - R)^2))."""
-    r = TIP_RADIUS * shape.radius
-    return float(np.sqrt(shape.rho ** 2 - (r + shape.rho - shape.radius) ** 2))
-
-
 def ogive_radius(shape, s):
     """The ogive's radius at distance s from its base."""
     return nose_profile(shape, np.clip(np.asarray(s) - (shape.length - shape.nose), 0.0, None))
 
 
-def ogive_stations(shape, shank_layers, nose_layers):
+def ogive_stations(shape, shank_layers, nose_layers, t_cap):
     """Axial positions of the swept sections: even over the shank, graded by
-    :func:`nose_grading` over the nose, ending at the flat tip."""
+    :func:`nose_grading` over the nose, ending at the cap's base, ``t_cap`` into the
+    nose."""
     shank = shape.length - shape.nose
     along = np.linspace(0.0, shank, shank_layers + 1)
-    t, grading = nose_grading(shape)
+    if nose_layers < 1:
+        return along
+    t, grading = nose_grading(shape, t_cap)
     nose = np.interp(np.linspace(0.0, grading[-1], nose_layers + 1), grading, t)
     return np.concatenate([along[:-1], shank + nose]) if shank_layers else shank + nose
 
@@ -210,6 +256,61 @@ def swept_disc(n, stations, radius):
     s = np.asarray(stations)[np.rint(square[:, 2]).astype(np.int64)]
     disc = ball_map(square[:, :2], 1.0) * radius(s)[:, None]
     return np.concatenate([disc, s[:, None]], axis=1), hexes
+
+
+def nose_cap(n, shape, s_base):
+    """(points, hexes) in the frame (u, v, s) of the nose beyond ``s_base``: the upper
+    half of the cubed ball (:func:`ball_map` of the box [-1, 1]^2 x [0, 1] cut into
+    n x n x n/2) mapped onto the ogive's tip. A node at distance d (0 to 1) from the
+    ball's centre in the direction of polar angle theta from the axis and azimuth phi
+    goes to d times the ogive's point at azimuth phi whose arc along the meridian,
+    from the base's rim towards the point, is the share 1 - theta / (pi/2) of the
+    whole, measured from the base's centre. The base (theta = pi/2) is then the O-grid
+    disc of the base's radius, node for node the swept disc's last section; the
+    surface nodes (d = 1) lie on the ogive and the ball's pole (theta = 0) on its point.
+    Along the meridian the cap has n elements (n/2 on a side block, n/2 on the top
+    block), spread by arc length from rim to point, so no element shrinks into the
+    point. The four elements at the box's upper corners have three faces on the
+    surface: their corner Jacobians are the mesh's smallest (0.13 of their mean at 2.3
+    mm, 0.037 at 20 elements across), still positive because the nose is convex."""
+    box, hexes = box_mesh([-1.0, -1.0, 0.0], [1.0, 1.0, 1.0], [n, n, n // 2])
+    ball = ball_map(box, 1.0)
+    d = np.linalg.norm(ball, axis=1)
+    theta = np.arccos(np.clip(np.divide(ball[:, 2], d, out=np.ones_like(d), where=d > 0),
+                              -1.0, 1.0))
+    phi = np.arctan2(ball[:, 1], ball[:, 0])
+    s_surface, r_surface = meridian_at(shape, s_base, 1.0 - theta / (0.5 * np.pi))
+    points = np.stack([d * r_surface * np.cos(phi), d * r_surface * np.sin(phi),
+                       s_base + d * (s_surface - s_base)], axis=1)
+    return points, hexes
+
+
+def meridian_at(shape, s_base, share):
+    """(s, r) of the points of the ogive's meridian beyond ``s_base`` at the ``share``
+    (0 at the base's rim, 1 at the point) of its arc length."""
+    start = shape.length - shape.nose
+    t = np.linspace(s_base - start, shape.nose, PROFILE_SAMPLES)
+    r = nose_profile(shape, t)
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(t), np.diff(r)))])
+    along = np.interp(np.asarray(share) * arc[-1], arc, t)
+    return start + along, nose_profile(shape, along)
+
+
+def join_cap(n, points, hexes, cap_points, cap_hexes):
+    """The swept disc and the cap as one mesh: the cap's base nodes (its box's layer 0)
+    are the disc's last section's (layer ``layers``), both numbered x slowest, z
+    fastest (:func:`box_mesh`), so they are matched by index, not by place."""
+    layers = len(points) // ((n + 1) ** 2) - 1
+    cap_layers = n // 2
+    ij = np.arange((n + 1) ** 2)
+    disc_top = ij * (layers + 1) + layers
+    cap_base = ij * (cap_layers + 1)
+    renumber = np.full(len(cap_points), -1, np.int64)
+    renumber[cap_base] = disc_top
+    rest = np.flatnonzero(renumber < 0)
+    renumber[rest] = len(points) + np.arange(len(rest))
+    return (np.concatenate([points, cap_points[rest]]),
+            np.concatenate([hexes, renumber[cap_hexes]]))
 
 
 def facet_scale(sides):

@@ -43,12 +43,13 @@ grid's (a wave crossing one coarse cell, the particles' CFL step) and the elemen
 element whose step falls far below the cell's makes every other part of the run pay for
 it; as particles its material runs at the grid's step. The reference is the same for
 every mesh of a body, so the criterion's floor, and the shortest step a run may keep,
-do not depend on how small the mesh's smallest element is (the ogive rod's flat tip is
-0.2 of its head element: a reference taken from the mesh made the 2.3 mm rod's floor
-five times lower than the 5.7 mm rod's; docs/validation/ogive_plate_fem.md). It is
-computed from the case alone, so it needs no reduction over the ranks and no checkpoint
-entry. An element already below the floor at the start (finer than the grid resolves:
-the 2.3 mm rod's 20 tip elements at 2 mm cells) converts after the first force pass.
+do not depend on how small the mesh's smallest element is (the ogive rod's flat tip,
+before its mesh got a cap, was 0.2 of its head element: a reference taken from the mesh
+made the 2.3 mm rod's floor five times lower than the 5.7 mm rod's;
+docs/validation/ogive_plate_fem.md). It is computed from the case alone, so it needs no
+reduction over the ranks and no checkpoint entry. An element already below the floor at
+the start (finer than the grid resolves: the 2.3 mm rod's 20 flat-tip elements at 2 mm
+cells, before its mesh had a cap) converts after the first force pass.
 
 The converted element's hourglass energy stays in the energy balance (FemBodies keeps
 it, ``removed_hourglass``); the kinetic energy the nodes lose beyond what the particles
@@ -143,10 +144,7 @@ class Conversion(Transfer):
         fem = self.elements
         fine = np.zeros(len(self.cell_rates))
         if fem.n_elements:
-            limit = self.cell_rates[fem.body] / np.maximum(self.rules.step_ratio[fem.body],
-                                                           1e-300)
-            at_start = (self.rules.step_ratio[fem.body] > 0) & (self.cell_rates[fem.body] > 0) \
-                & (self.rules.divisions[fem.body] > 0) & (fem.shape_rates(initial=True) >= limit)
+            at_start = self.at_the_floor(fem.body, fem.shape_rates(initial=True))
             np.add.at(fine, fem.body, at_start.astype(np.float64))
         fine = self.world.sum(fine)
         for b in np.flatnonzero(fine > 0):
@@ -206,13 +204,20 @@ class Conversion(Transfer):
         return chosen
 
     def on_the_step(self, b):
-        """Which of this rank's elements (of bodies ``b``) have a stable step at most
-        ``step_ratio`` of their body's cell step (their rate at least the cell's rate
-        over the ratio; none of a body without a wave speed, a rigid one)."""
+        """Which of this rank's elements (of bodies ``b``) have a step, as the last force
+        pass took it, at the step criterion's floor (:meth:`at_the_floor`)."""
+        return self.at_the_floor(b, self.elements.step_rates())
+
+    def at_the_floor(self, b, rates):
+        """Which elements, of bodies ``b`` with stable ``rates`` (1 / step), have a step
+        at most ``step_ratio`` of their body's cell step: their rate at least the cell's
+        rate over the ratio; none of a body that does not convert on the step or has no
+        wave speed (a rigid one). The one comparison of the criterion, for the run's
+        steps (:meth:`on_the_step`) and the warning at the start (at rest)."""
         ratio, reference = self.rules.step_ratio[b], self.cell_rates[b]
         limit = reference / np.maximum(ratio, 1e-300)
         return (ratio > 0) & (self.rules.divisions[b] > 0) & (reference > 0) \
-            & (self.elements.step_rates() >= limit)
+            & (rates >= limit)
 
     def particles_of(self, converted):
         """The particle columns of the elements ``converted`` (local indices)."""
