@@ -31,15 +31,18 @@ def test_quick_start_only_where_safe_and_unchosen(environ, expected):
     assert quick_start_settings(environ) == expected
 
 
-PROBE = ("import os; from pmpm.comm.launch import quick_mpi_start\n"
+#: each rank writes its line to its own file: two ranks' prints through mpirun's forwarded
+#: stdout can arrive interleaved on a loaded machine
+PROBE = ("import os, sys; from pmpm.comm.launch import quick_mpi_start\n"
          "with quick_mpi_start() as chosen:\n"
          "    from pmpm.comm import world; w = world()\n"
-         "print(w.rank, w.size, w.sum(w.rank + 1), chosen.get('OMPI_MCA_pml'), "
-         "'OMPI_MCA_pml' in os.environ)")
+         "line = f\"{w.rank} {w.size} {w.sum(w.rank + 1)} {chosen.get('OMPI_MCA_pml')} "
+         "{'OMPI_MCA_pml' in os.environ}\"\n"
+         "open(os.path.join(sys.argv[1], f'rank{w.rank}'), 'w').write(line)")
 
 
 @pytest.mark.parametrize("ranks", [1, 2])
-def test_mpi_starts_with_the_quick_choices(ranks):
+def test_mpi_starts_with_the_quick_choices(ranks, tmp_path):
     """The choices start MPI and its collectives work (ob1 with only the self transport
     for a singleton, ob1 between the ranks of one machine), and the environment is left as it
     was (a singleton's btl=self inherited by an mpirun started later would cut its
@@ -47,12 +50,12 @@ def test_mpi_starts_with_the_quick_choices(ranks):
     env = dict(os.environ, **ENV, PYTHONPATH=ROOT)
     for name in ("OMPI_MCA_pml", "OMPI_MCA_btl", "OMPI_MCA_mtl"):
         env.pop(name, None)
-    cmd = [sys.executable, "-c", PROBE]
+    cmd = [sys.executable, "-c", PROBE, str(tmp_path)]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), "--oversubscribe"] + cmd
     done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=60)
     assert done.returncode == 0, done.stderr
-    lines = sorted(done.stdout.split("\n")[:ranks])
+    lines = sorted((tmp_path / f"rank{rank}").read_text() for rank in range(ranks))
     total = ranks * (ranks + 1) // 2
     assert lines == [f"{rank} {ranks} {total} ob1 False" for rank in range(ranks)]
 
