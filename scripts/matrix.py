@@ -5,9 +5,11 @@ another (``grid.shape_functions``, the contact rule, ``time.transfer``,
 ``time.scheme``). Each cell is the error against the case's reference and a pass or fail
 against the tolerance its validation page states, with the wall time.
 
-Writes ``results/matrix/matrix.json`` (every run, merged with earlier runs of this script,
-so that levels and rows can be run in separate sittings) and the page
-``docs/validation/matrix.md`` from all of it.
+Keeps every run's record in ``docs/validation/matrix.json`` (tracked beside the page, so
+that a sitting that re-runs some rows merges with the others' earlier records instead of
+writing "not run" over them; each record names the commit and date it was measured at)
+and writes the page ``docs/validation/matrix.md`` from all of them. The runs' output
+goes to ``results/matrix/`` (not tracked).
 
 Usage: .venv/bin/python scripts/matrix.py [--level coarse|validated|both]
            [--rows taylor_bar,hertz] [--defaults-only] [--page-only]
@@ -19,6 +21,7 @@ import argparse
 import json
 import math
 import os
+import subprocess
 import sys
 import time
 from collections import namedtuple
@@ -35,6 +38,8 @@ from pmpm.post import (axial_profiles, energy_steps, hertz_answer,  # noqa: E402
 
 OUT = os.path.join(ROOT, "results", "matrix")
 PAGE = os.path.join(ROOT, "docs", "validation", "matrix.md")
+#: every record of every sitting, tracked with the page it is written from
+RECORDS = os.path.join(ROOT, "docs", "validation", "matrix.json")
 
 #: The options of the matrix, each as the --set lines of its alternatives; the first
 #: alternative of each is pmpm's default (``pmpm.case.schema``; checked by
@@ -267,7 +272,8 @@ def run_row(row, level, variant, sets, out_root=OUT):
     level_sets, checks = row.levels[level]
     out = os.path.join(out_root, row.name, level, variant.replace(": ", "-").replace(", ", "-"))
     started = time.perf_counter()
-    record = {"row": row.name, "level": level, "variant": variant, "sets": level_sets + sets}
+    record = {"row": row.name, "level": level, "variant": variant, "sets": level_sets + sets,
+              "commit": source_commit(), "date": time.strftime("%Y-%m-%d", time.gmtime())}
     try:
         summary = run_case(row.case, out, row.ranks, level_sets + sets + ["output.progress=false"])
     except Exception as error:                        # refused (exit 2) or a fault (exit 1)
@@ -276,13 +282,28 @@ def run_row(row, level, variant, sets, out_root=OUT):
         return record
     values = measure_of(row, level)(out)
     cells = evaluate(values, checks)
-    record.update(status="ran", wall_s=summary["wall_s"], n_particles=summary[
+    record.update(status="ran", wall_s=summary["wall_s"],
+                  compile_s=summary.get("compile_s", 0.0), n_particles=summary[
         "n_particles"]["initial"], n_steps=summary["n_steps"], cells=cells,
         passed=all(c["pass"] for c in cells.values()))
     return record
 
 
-def load(path=os.path.join(OUT, "matrix.json")):
+def source_commit():
+    """The commit the runs measure (with ``+`` when pmpm/ has uncommitted changes), or
+    ``unknown`` outside a git checkout."""
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
+                              check=True).stdout.strip()
+    try:
+        head = git("rev-parse", "--short", "HEAD")
+        dirty = git("status", "--porcelain", "--", "pmpm")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+" if dirty else "")
+
+
+def load(path=RECORDS):
     try:
         with open(path, encoding="utf-8") as handle:
             return json.load(handle)
@@ -303,7 +324,15 @@ def cell_text(record):
         return "refused / failed"
     parts = [f"{key} {cell_error(key, c)}{'' if c['pass'] else ' **x**'}"
              for key, c in record["cells"].items()]
-    return "; ".join(parts) + f" ({record['wall_s']:.1f} s)"
+    wall = record["wall_s"] - record.get("compile_s", 0.0)
+    return "; ".join(parts) + f" ({wall:.1f} s{measured_at(record)})"
+
+
+def measured_at(record):
+    """", at <commit> <date>" for records that name them (older ones do not)."""
+    if "commit" not in record:
+        return ""
+    return f", {record['commit']} {record['date']}"
 
 
 def tolerance_text(row, level):
@@ -383,8 +412,10 @@ gap), `time.transfer: flip`, `time.scheme: usf`, set explicitly so that
 what a case file names for its paper does not count), then with one option changed at a
 time. A result lists each quantity's error against the case's reference (relative in %,
 or absolute where the reference is 0: m/s for the bars, fractions elsewhere), **x**
-where it leaves the tolerance its page states, and the wall time on the ranks the row
-names. `tests/test_matrix.py` runs the coarse rows of `CI_ROWS` at the defaults in CI.
+where it leaves the tolerance its page states, the wall time on the ranks the row
+names (without compiling the kernels), and the commit and date it was measured at. The records are kept in
+`matrix.json` beside this page, so a sitting that re-runs some rows keeps the others.
+`tests/test_matrix.py` runs the coarse rows of `CI_ROWS` at the defaults in CI.
 
 Why the defaults are what they are, and what fails with them: [defaults.md](defaults.md).
 """
@@ -428,7 +459,7 @@ def main():
                     print(json.dumps({k: record[k] for k in ("row", "level", "variant")}),
                           cell_text(record), flush=True)
                     records = merge(records, [record])
-                    save_json(os.path.join(OUT, "matrix.json"), records)
+                    save_json(RECORDS, records)
     write_page(records)
 
 

@@ -35,3 +35,23 @@ def test_coarse_row_passes_at_the_defaults(tmp_path, name):
     assert record["status"] == "ran", record.get("detail")
     failed = {k: c for k, c in record["cells"].items() if not c["pass"]}
     assert not failed, failed
+
+
+def test_the_page_is_written_from_the_tracked_records(tmp_path):
+    """docs/validation/matrix.md is what write_page makes of docs/validation/matrix.json:
+    a sitting that re-runs some rows merges with the tracked records of the others, so
+    the committed page cannot silently lose rows it held."""
+    page = tmp_path / "matrix.md"
+    matrix.write_page(matrix.load(), path=str(page))
+    with open(matrix.PAGE, encoding="utf-8") as handle:
+        assert page.read_text(encoding="utf-8") == handle.read()
+
+
+def test_every_row_has_a_record_at_the_defaults():
+    """The tracked records hold every row at the defaults at both resolutions, each
+    naming the commit it was measured at."""
+    records = matrix.load()
+    have = {(r["row"], r["level"]) for r in records if r["variant"] == "defaults"}
+    want = {(row.name, level) for row in matrix.ROWS for level in row.levels}
+    assert want <= have, sorted(want - have)
+    assert all("commit" in r for r in records)
