@@ -263,6 +263,14 @@ def traffic(phase, shape, n_particles, n_nodes):
 # -- 3. the phases in the real run -------------------------------------------------------
 
 
+@njit(cache=True, inline="always")
+def stencil_scratch():
+    """One particle's stencil arrays (node ids, the 1D axes, weights and gradients),
+    made once per kernel call and reused for every particle."""
+    return (np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES),
+            np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES))
+
+
 @njit(cache=True)
 def weights_and_gradients(pts, geo):
     """The stress pass's weights and gradients of every particle, alone (its loop
@@ -271,9 +279,7 @@ def weights_and_gradients(pts, geo):
     x, _, _, body, _ = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
-    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    nodes, axes, w, gx, gy, gz = stencil_scratch()
     total = 0.0
     for p in range(x.shape[0]):
         if shape == LINEAR:
@@ -300,9 +306,7 @@ def velocity_gradients(pts, geo, gvel, lgs):
     x, _, _, body, _ = pts
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
-    nodes, axes = np.empty(MAX_NODES, np.int64), np.empty((9, 3))
-    w, gx, gy, gz = (np.empty(MAX_NODES), np.empty(MAX_NODES), np.empty(MAX_NODES),
-                     np.empty(MAX_NODES))
+    nodes, axes, w, gx, gy, gz = stencil_scratch()
     for p in range(x.shape[0]):
         reach = stencil(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
                         nodes, w, gx, gy, gz)

@@ -24,7 +24,7 @@ from numba import njit
 from ..materials.layout import G, Q_LINEAR, Q_QUADRATIC
 from ..materials.tensors import fdiv
 from .hexahedron import HOURGLASS
-from .stability import STIFFNESS
+from .stability import STIFFNESS, gram_row_bound
 
 #: elements per block: 16 doubles are two AVX-512 (four AVX2) registers; with 8 LLVM
 #: unrolls the lane loops completely and leaves them scalar
@@ -199,11 +199,7 @@ def _gram_bound(gamma, l):
         _dot8(gamma, 0, 2, l), _dot8(gamma, 0, 3, l)
     g11, g12, g13 = _dot8(gamma, 1, 1, l), _dot8(gamma, 1, 2, l), _dot8(gamma, 1, 3, l)
     g22, g23, g33 = _dot8(gamma, 2, 2, l), _dot8(gamma, 2, 3, l), _dot8(gamma, 3, 3, l)
-    r0 = abs(g00) + abs(g01) + abs(g02) + abs(g03)
-    r1 = abs(g01) + abs(g11) + abs(g12) + abs(g13)
-    r2 = abs(g02) + abs(g12) + abs(g22) + abs(g23)
-    r3 = abs(g03) + abs(g13) + abs(g23) + abs(g33)
-    return max(max(max(max(0.0, r0), r1), r2), r3)
+    return gram_row_bound(g00, g01, g02, g03, g11, g12, g13, g22, g23, g33)
 
 
 @njit(cache=True, inline="always")

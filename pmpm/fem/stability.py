@@ -70,6 +70,14 @@ def hourglass_gram_bound(gamma):
         _dot8(gamma, 0, 3)
     g11, g12, g13 = _dot8(gamma, 1, 1), _dot8(gamma, 1, 2), _dot8(gamma, 1, 3)
     g22, g23, g33 = _dot8(gamma, 2, 2), _dot8(gamma, 2, 3), _dot8(gamma, 3, 3)
+    return gram_row_bound(g00, g01, g02, g03, g11, g12, g13, g22, g23, g33)
+
+
+@njit(cache=True, inline="always")
+def gram_row_bound(g00, g01, g02, g03, g11, g12, g13, g22, g23, g33):
+    """The largest absolute row sum of the symmetric 4 x 4 Gram matrix from its ten
+    distinct entries, each row summed in column order (pmpm.fem.lanes calls it per
+    lane, so both give the same bits)."""
     r0 = abs(g00) + abs(g01) + abs(g02) + abs(g03)
     r1 = abs(g01) + abs(g11) + abs(g12) + abs(g13)
     r2 = abs(g02) + abs(g12) + abs(g22) + abs(g23)
