@@ -98,7 +98,7 @@ def test_the_face_counts_follow_removals_step_by_step(monkeypatch):
         count, _ = convert_foot(sim, height)
         assert count > 0 and fem.mesh_version == version + 1
         assert fem.last_removal[0] == version           # the update, not a recount
-        kept_version, _, counts = fem._mesh_faces
+        kept_version, _, counts = fem.face_cache
         assert kept_version == fem.mesh_version
         gids = fem.node_id[fem.hexes[:, FACES].reshape(-1, 4)]
         assert (counts == matching_face_counts(gids)).all()

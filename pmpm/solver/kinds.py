@@ -49,6 +49,14 @@ class BodyKind:
     #: how many times the elements changed: what depends on the mesh alone (the free
     #: faces) may be kept while it stays, the same on every rank (the event is collective)
     mesh_version = 0
+    #: what :meth:`elements_changed` last did to the elements, for the couplings that
+    #: update what they keep rather than rebuild it (``remove_elements`` sets it:
+    #: (the version it changed, the elements kept, the removed faces' node ids)), or None
+    last_removal = None
+    #: what a coupling derived from the mesh alone and keeps while ``mesh_version``
+    #: stays (pmpm.solver.surface_contact.mesh_faces: the free faces and the nodes'
+    #: holders, shared by surface and node contact), or None
+    face_cache = None
 
     def when_elements_change(self, listener):
         """Have ``listener()`` called each time this kind's set of elements changes

@@ -610,23 +610,22 @@ def mesh_faces(world, fem):
     """(faces, key, free, holders) of the FEM kind ``fem``'s elements: their faces as rows
     of 4 local node indices (six per element), each face's key (element id * 6 + face),
     which are free over all ranks (:func:`shared_faces_taken`), and each local node's
-    holders. Kept on ``fem`` while its mesh stays (``mesh_version``), so that the
+    holders. Kept in ``fem.face_cache`` while its mesh stays (``mesh_version``), so that the
     couplings that rebuild their faces on one change (surface and node contact) find them
     once: at the seed's 1 mm perforation (1.9 million faces) elements convert at about
     every other step."""
     faces = fem.hexes[:, FACES].reshape(-1, 4)
     key = (fem.element_id[:, None] * 6 + np.arange(6)).ravel().astype(np.int64)
-    kept = getattr(fem, "_mesh_faces", None)
+    kept = fem.face_cache
     if kept is not None and kept[0] == fem.mesh_version:
         return (faces, key) + kept[1]
     gids = fem.node_id[faces]
-    counts = local_face_counts(kept, getattr(fem, "last_removal", None), fem.mesh_version,
-                               gids)
+    counts = local_face_counts(kept, fem.last_removal, fem.mesh_version, gids)
     free = shared_faces_taken(world, faces, gids, counts == 1, fem.node_id, fem.partners)
     holders = node_holders(world.rank, fem.partners, len(fem.x))
     # kept: what is not a gather of the connectivity (the faces and keys are made again
     # per call: 0.23 kB an element less to hold through the run)
-    fem._mesh_faces = (fem.mesh_version, (free, holders), counts)
+    fem.face_cache = (fem.mesh_version, (free, holders), counts)
     return faces, key, free, holders
 
 
