@@ -295,7 +295,7 @@ def test_a_coupling_that_cannot_be_made_is_refused_naming_its_key(tmp_path, cont
 def test_coupling_codes_follow_the_section_and_the_pairs(tmp_path):
     from pmpm.solver.bodies import BodyTable
     from pmpm.solver.contact import GRID_COUPLING, SURFACE_COUPLING, ContactRules
-    tree = coupled_tree({"method": 2, "coupling": "grid"})
+    tree = coupled_tree({"method": 1, "coupling": "grid"})
     tree["bodies"].append({"name": "rod", "material": "steel",
                            "geometry": {"type": "sphere", "center": [0, 0, 5],
                                         "radius": 1}})
@@ -313,7 +313,30 @@ def test_coupling_codes_follow_the_section_and_the_pairs(tmp_path):
     assert rules.coupling[block, ball] == rules.coupling[ball, block] == GRID_COUPLING
     assert rules.coupling[block, rod] == GRID_COUPLING
     assert rules.coupling[plate, rod] == rules.coupling[rod, plate] == SURFACE_COUPLING
-    assert rules.coupling[ball, rod] == 0 and rules.coupling[block, plate] == 0
+    assert rules.coupling[ball, rod] == 0
+    # two FEM bodies take the section's coupling too: on the grid (AFEMP)
+    assert rules.coupling[block, plate] == rules.coupling[plate, block] == GRID_COUPLING
+
+
+@pytest.mark.parametrize("method, pairs, key", [
+    (2, [], "contact.method"),
+    (0, [{"bodies": ["block", "plate"], "coupling": "grid"}], "contact.pairs[0].coupling"),
+    (2, [{"bodies": ["block", "plate"]}], "contact.pairs[0].coupling"),
+])
+def test_two_fem_bodies_on_the_grid_need_method_1_naming_the_key(tmp_path, method, pairs,
+                                                                  key):
+    """Under method 2 the start correction takes the approach out of velocities the FE
+    nodes never take: two FEM bodies on the grid would pass through each other (an ogive
+    rod through its plate at 575 m/s, untouched), so the case is refused."""
+    from pmpm.case.fem import FEM_PAIR_ON_GRID
+    tree = coupled_tree({"method": method, "coupling": "grid" if method else "surface"})
+    tree["bodies"].append({"name": "plate", "material": "steel", "method": "fem",
+                           "geometry": {"type": "box", "min": [5, 5, 5], "max": [7, 7, 6]},
+                           "fem": {"element_size": 1.0}})
+    tree["contact"]["pairs"] = pairs
+    with pytest.raises(CaseError) as error:
+        load_case(write_case(tmp_path, tree))
+    assert f"{key}: {FEM_PAIR_ON_GRID}" in error.value.problems
 
 
 def test_an_fem_body_met_on_the_grid_and_by_surface_contact_is_refused_in_validation(

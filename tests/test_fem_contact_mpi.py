@@ -53,3 +53,26 @@ def test_n_ranks_give_the_one_rank_answer(name):
     assert (many[0] == one[0]).all()
     for k in (1, 2):
         assert np.abs(many[k] - one[k]).max() <= 1e-12 * np.abs(one[k]).max()
+
+
+@pytest.mark.mpi(min_size=2)
+def test_fem_bars_on_the_grid_n_ranks_give_the_one_rank_answer():
+    """Both bars on the grid (AFEMP): the slab plane between them, so the contact nodes'
+    two body fields are summed over it; rebalanced every 10 steps."""
+    from test_fem_contact import ON_GRID, contact_count
+    world = comm_world()
+    sets = ON_GRID + ["decomposition.axis=x", "time.end=0.005"]
+    sims = [simulation(BARS, sets, world), simulation(BARS, sets)]
+    counts = [[], []]
+    for sim, log in zip(sims, counts):
+        def every(s, log=log):
+            log.append(contact_count(s))
+            if len(log) % 10 == 0:
+                s.rebalance(0.01)
+        run(sim, every)
+    # (the slots of a shared plane count on both of its ranks: compare the steps)
+    assert [c > 0 for c in counts[0]] == [c > 0 for c in counts[1]] and max(counts[1]) > 0
+    many, one = nodes(sims[0], world), nodes(sims[1], None)
+    assert (many[0] == one[0]).all()
+    for k in (1, 2):
+        assert np.abs(many[k] - one[k]).max() <= 1e-12 * np.abs(one[k]).max()

@@ -80,10 +80,11 @@ COUPLING_DOC = ("how an FEM body and a particle body meet (seed 004): `surface` 
                 "size and with any contact.method; `grid` (CFEMP, Sec. 2.4): the FE nodes "
                 "join the multi-velocity grid contact as particles of their body (needs "
                 "method 1 or 2, and elements about the size of a cell). Two FEM bodies "
-                "meet when this is `surface` (or their pair says so): node-to-surface "
-                "contact, the free-surface nodes of each kept out of the other's free "
-                "faces with the pair's friction (docs/validation/fem_contact.md); with "
-                "`grid` they do not meet unless a pair names them with `surface`")
+                "meet the same way: `surface`, node-to-surface contact, the free-surface "
+                "nodes of each kept out of the other's free faces with the pair's "
+                "friction (docs/validation/fem_contact.md); `grid`, both bodies' FE nodes "
+                "in the grid contact (seed 004's AFEMP; method 1 only; "
+                "docs/validation/ogive_plate_fem.md)")
 PAIR = {
     "bodies": Field(Custom(read_pair_bodies, "two body names"),
                     doc="the two bodies of the pair, e.g. [ball, plate]"),
@@ -104,8 +105,8 @@ PAIR = {
                           "body, or `surface` for a pair of FEM bodies: node-to-surface "
                           "contact, where `normal` chooses the masters (a body of the pair: "
                           "its faces only; `stiffer`: the stiffer body's; `average`: both "
-                          "ways, one symmetric pass); `grid` is refused for two FEM bodies "
-                          "(left out: contact.coupling)"),
+                          "ways, one symmetric pass), or `grid` for two FEM bodies on the "
+                          "grid (AFEMP, contact.method 1) (left out: contact.coupling)"),
 }
 CONTACT = {
     "method": Field(Custom(read_method, "`none`, `1`, `2`"), 0,

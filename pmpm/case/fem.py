@@ -311,8 +311,9 @@ def too_many_elements(body, path, problems):
 def check_coupling(case, fem_names, problems):
     """FEM bodies meet particle bodies by ``contact.coupling`` (or a pair's): grid coupling
     needs the multi-velocity grid (method 1 or 2); in a surface pair the FEM body is the
-    master, so a pair's ``normal`` may not name its particle body; two FEM bodies meet by
-    surface (node-to-surface) contact only; a window follows particle bodies only."""
+    master, so a pair's ``normal`` may not name its particle body; two FEM bodies meet on
+    the grid with method 1 only (:data:`FEM_PAIR_ON_GRID`); a window follows particle
+    bodies only."""
     contact = case["contact"]
     if contact is INVALID:
         return
@@ -321,6 +322,9 @@ def check_coupling(case, fem_names, problems):
         problems.add("contact.coupling", "grid coupling (CFEMP) puts the FE nodes into "
                      "the multi-velocity grid contact: set contact.method to 1 or 2, or "
                      "use surface coupling")
+    elif valid(contact, "coupling") and contact["coupling"] == "grid" and method == 2 \
+            and len(fem_names) > 1 and not all_fem_pairs_listed(contact, fem_names):
+        problems.add("contact.method", FEM_PAIR_ON_GRID)
     for i, pair in enumerate(contact.get("pairs") or []):
         if isinstance(pair, dict) and valid(pair, "bodies"):
             check_pair_coupling(pair, join("contact.pairs", i), contact, fem_names, problems)
@@ -359,13 +363,31 @@ def check_mixed_coupling(case, fem_names, problems):
                          f"one coupling")
 
 
+#: why two FEM bodies meet on the grid with method 1 only: method 2's start correction
+#: (Eq. 25) takes the approach out of the velocities the stresses use, which the FE nodes
+#: never take (their elements' stresses use their own velocities), so the end-of-step
+#: correction finds nothing approaching and the bodies pass through each other
+FEM_PAIR_ON_GRID = ("two FEM bodies on the grid (AFEMP) need contact.method 1: under "
+                    "method 2 the start correction removes the approach the FE nodes never "
+                    "take, and the bodies pass through each other; or meet them by surface "
+                    "(node-to-surface) contact")
+
+
+def all_fem_pairs_listed(contact, fem_names):
+    """Whether every pair of FEM bodies is listed in contact.pairs (its own coupling)."""
+    listed = {frozenset(p["bodies"]) for p in contact.get("pairs") or []
+              if isinstance(p, dict) and valid(p, "bodies")}
+    names = sorted(fem_names)
+    return all(frozenset((a, b)) in listed for i, a in enumerate(names)
+               for b in names[i + 1:])
+
+
 def check_pair_coupling(pair, path, contact, fem_names, problems):
     named = [n for n in pair["bodies"] if n in fem_names]
     if len(named) == 2:
-        if pair.get("coupling", contact.get("coupling")) == "grid":
-            problems.add(join(path, "coupling"), "two FEM bodies meet by surface "
-                         "(node-to-surface) contact only, not on the grid: set this "
-                         "pair's coupling to surface")
+        if pair.get("coupling", contact.get("coupling")) == "grid" and \
+                contact.get("method") != 1:
+            problems.add(join(path, "coupling"), FEM_PAIR_ON_GRID)
         return
     if not named:
         return

@@ -40,10 +40,11 @@ class ContactRules:
         far apart (inf: no release rule, seed 001's methods unchanged)
     volume_gap : bool   the release rule measures the gap from the bodies' shares of the
         node's hat (``contact.gap: volume``) rather than their particles' reach
-    coupling : (nb, nb) int64   for a pair of an FEM body and a particle body, how they
-        meet (GRID_COUPLING: CFEMP, SURFACE_COUPLING: ICFEMP); for a pair of FEM bodies
-        SURFACE_COUPLING when they meet by node-to-surface contact
-        (pmpm.solver.node_contact); NO_COUPLING for every other pair
+    coupling : (nb, nb) int64   for a pair with an FEM body, how they meet: a particle
+        body GRID_COUPLING (CFEMP) or SURFACE_COUPLING (ICFEMP); another FEM body
+        SURFACE_COUPLING (node-to-surface contact, pmpm.solver.node_contact) or
+        GRID_COUPLING (both bodies' FE nodes in the grid contact: AFEMP, method 1);
+        NO_COUPLING for every pair of particle bodies
     """
 
     def __init__(self, contact, bodies, fem=None):
@@ -91,22 +92,19 @@ class ContactRules:
 
 
 def _couplings(contact, names, fem):
-    """The coupling code of every pair (see ``ContactRules.coupling``). Two FEM bodies
-    meet only by surface (node-to-surface) contact: their pair is SURFACE_COUPLING when
-    its coupling (or the section's) is surface, else NO_COUPLING (the case check refuses
-    a listed pair of FEM bodies with grid coupling)."""
+    """The coupling code of every pair with an FEM body (see ``ContactRules.coupling``):
+    its coupling, or the section's (two FEM bodies on the grid need method 1: the case
+    check refuses the others)."""
     mixed = fem[:, None] != fem[None, :]
     both = fem[:, None] & fem[None, :] & ~np.eye(len(fem), dtype=bool)
     coupling = np.where(mixed, COUPLING_CODES[contact.coupling], NO_COUPLING)
-    if contact.coupling == "surface":
-        coupling[both] = SURFACE_COUPLING
+    coupling[both] = COUPLING_CODES[contact.coupling]
     for pair in contact.pairs:
         a, b = (names.index(name) for name in pair.bodies)
         if mixed[a, b]:
             coupling[a, b] = coupling[b, a] = COUPLING_CODES[pair.coupling]
         elif both[a, b]:
-            coupling[a, b] = coupling[b, a] = SURFACE_COUPLING \
-                if pair.coupling == "surface" else NO_COUPLING
+            coupling[a, b] = coupling[b, a] = COUPLING_CODES[pair.coupling]
     return coupling.astype(np.int64)
 
 
