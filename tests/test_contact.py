@@ -332,3 +332,37 @@ def test_a_damped_block_on_an_inclined_plate_with_mu_above_tan_a_does_not_creep(
     run_pmpm(SLIDING, tmp_path, sets=_incline_sets(0.7, 30) + ["time.pic=0.3"])
     rows = [r for r in history(tmp_path) if r["time"] > 0.1]
     assert np.ptp([r["block.x"] for r in rows]) < 1e-6        # m: 1 um; sliding: 20 mm
+
+
+def test_three_bodies_at_a_node_keep_momentum_through_the_contact():
+    """Three bodies at a node, each approaching the centre of mass along its own normal
+    (not opposite pairs): each is corrected against the centre of mass, and without the
+    balance their corrections summed to a net force (found with an FEM rod, its plate
+    and the plate's converted particles at one node). The contact now keeps momentum to
+    round-off at three bodies, and two bodies are corrected as before (bit for bit)."""
+    rng = np.random.default_rng(7)
+    dt = 1e-3
+    for nb in (2, 3):
+        cnodal = np.zeros((1, nb, kc.CNODAL))
+        cnodal[0, :, 0] = rng.uniform(0.5, 2.0, nb)
+        normals = rng.normal(size=(nb, 3))
+        if nb == 2:
+            normals[1] = -normals[0]
+        cnodal[0, :, 4:7] = normals
+        cnodal[0, :, 1:4] = normals * cnodal[0, :, :1] * rng.uniform(1, 3, (nb, 1))
+        cforce = rng.normal(size=(1, nb, 3))
+        mass = cnodal[0, :, 0].sum()
+        gvel = cnodal[0, :, 1:4].sum(axis=0, keepdims=True) / mass
+        gnew = np.zeros((1, 6))
+        gnew[0, 3:] = cforce[0].sum(axis=0) / mass
+        gnew[0, :3] = gvel[0] + gnew[0, 3:] * dt
+        rigid = np.zeros(nb, np.bool_)
+        cvel, cnorm, cnew = np.empty((1, nb, 3)), np.empty((1, nb, 3)), np.empty((1, nb, 6))
+        contact_start(cnodal, np.arange(1), gvel, np.full((nb, nb), -1), NO_CHECK, rigid, 1,
+                      0.0, *ONE_NODE, cvel, cnorm)
+        contact_end(cnodal, cvel, cnorm, cforce, np.arange(1), gvel, gnew,
+                    np.zeros((nb, nb)), NO_CHECK, rigid, False, dt, 0.0, *ONE_NODE, cnew)
+        change = (cnodal[0, :, :1] * (cnew[0, :, 3:] - cforce[0] / cnodal[0, :, :1])).sum(0)
+        assert np.abs(change).max() < 1e-12 * np.abs(cforce).max()
+        moved = cnew[0, :, :3] - (cvel[0] + cforce[0] / cnodal[0, :, :1] * dt)
+        assert np.abs(moved).max() > 1e-3                       # the contact acted

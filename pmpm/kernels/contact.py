@@ -330,6 +330,44 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
             for d in range(3):
                 cnew[s, b, d] = cvel[s, b, d] + acc[d] * dt
                 cnew[s, b, 3 + d] = acc[d]
+        _balance_corrections(cnodal, cforce, cnew, body_rigid, m_tiny, faces[n], s, dt,
+                             acc, tangent)
+
+
+@njit(cache=True)
+def _balance_corrections(cnodal, cforce, cnew, body_rigid, m_tiny, code, s, dt, net, own):
+    """Where three bodies or more meet at slot ``s``, each is corrected against the
+    centre of mass along its own normal, and their corrections need not sum to zero
+    (two bodies have opposite normals and approach it together: theirs do). Their net,
+    per unit of the node's mass, is taken off every body there, so that the contact
+    keeps momentum (an ogive rod's FE nodes, its plate's and the plate's converted
+    particles at one node: 0.2 % of the momentum a step). Nodes of two bodies, and
+    nodes with a rigid body (which imposes its velocity), are left as they are.
+    ``net``, ``own``: scratch 3-vectors."""
+    present, total = 0, 0.0
+    for d in range(3):
+        net[d] = 0.0
+    for b in range(cnodal.shape[1]):
+        m = cnodal[s, b, 0]
+        if m <= m_tiny:
+            continue
+        if body_rigid[b]:
+            return
+        present += 1
+        total += m
+        for d in range(3):
+            own[d] = cforce[s, b, d] / m
+        constrain_coded(own, code)
+        for d in range(3):
+            net[d] += m * (cnew[s, b, 3 + d] - own[d])
+    if present < 3:
+        return
+    for b in range(cnodal.shape[1]):
+        if cnodal[s, b, 0] <= m_tiny:
+            continue
+        for d in range(3):
+            cnew[s, b, 3 + d] -= net[d] / total
+            cnew[s, b, d] -= net[d] / total * dt
 
 
 @njit(cache=True, inline="always")

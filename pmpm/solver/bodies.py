@@ -26,9 +26,21 @@ class BodyTable:
         self.grid_rigid = self.rigid & ~np.array(
             [bool(b.free_axes) and b.is_fem for b in bodies], bool)
         #: per body the spacing, in cells, of the particles born of an FEM body's
-        #: elements (``BodyConfig.born_spacing``), 0 where none are
-        self.born_spacing = np.array([b.born_spacing / config.grid.cell if b.born_spacing
-                                      else 0.0 for b in bodies])
+        #: elements (``BodyConfig.born_spacing``; a body added for them, ``born_of``: its
+        #: FEM body's), 0 where none are
+        spacing = {b.name: b.born_spacing for b in bodies if b.born_spacing}
+        self.born_spacing = np.array([spacing.get(b.born_of or b.name, 0.0)
+                                      / config.grid.cell for b in bodies])
+        #: per body the index of the particle body that takes its converted elements'
+        #: particles (pmpm.case.config.converted_bodies), or -1: they stay in the body
+        self.converted_into = np.full(len(bodies), -1, np.int64)
+        for i, body in enumerate(bodies):
+            if body.born_of:
+                self.converted_into[self.names.index(body.born_of)] = i
+        #: the FEM bodies whose converted particles stay in them and meet what is left
+        #: of their own mesh by surface contact (IAFEMP)
+        self.meets_own_mesh = (self.born_spacing > 0) & (self.converted_into < 0) & \
+            np.array([b.is_fem for b in bodies], bool)
         #: the particles' uGIMP half-width in cells: half the lattice spacing (an FEM
         #: body's: half that of the particles born of its elements)
         self.half_width = np.array([0.5 * spacing if spacing else 0.5 / b.particles_per_cell
@@ -49,8 +61,10 @@ def fill_positions(config, fill_body, case_dir):
     all particles; the full columns are built for a rank's own particles only. An FEM
     body has no particles (its mesh: solver.fem_bodies.build_meshes)."""
     case = config.case
-    return [fill_body(body, case["grid"], case_dir) if body.get("method") != "fem"
-            else (np.zeros((0, 3)), np.zeros(0)) for body in case["bodies"]]
+    listed = [fill_body(body, case["grid"], case_dir) if body.get("method") != "fem"
+              else (np.zeros((0, 3)), np.zeros(0)) for body in case["bodies"]]
+    added = len(config.bodies) - len(listed)        # the bodies of converted elements
+    return listed + [(np.zeros((0, 3)), np.zeros(0))] * added
 
 
 def build_particles(config, table, filled, keep):

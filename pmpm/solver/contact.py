@@ -67,15 +67,14 @@ class ContactRules:
             for b in range(nb):
                 if a != b:
                     self.master[a, b] = _master(default, a, b, names, stiffness)
-        for pair in contact.pairs:               # resolved: what a pair leaves out is
-            a, b = (names.index(name) for name in pair.bodies)      # the section's
-            self.friction[a, b] = self.friction[b, a] = float(pair.friction)
+        pairs = listed_pairs(contact.pairs, names, bodies.converted_into)
+        for a, b, pair, normal in pairs:         # resolved: what a pair leaves out is
+            self.friction[a, b] = self.friction[b, a] = float(pair.friction)  # the
             self.separation[a, b] = self.separation[b, a] = _limit(pair.separation)
-            self.release[a, b] = self.release[b, a] = _limit(pair.release)
-            self.master[a, b] = self.master[b, a] = _master(pair.normal, a, b, names,
-                                                            stiffness)
-        self.coupling = _couplings(contact, names, np.zeros(nb, bool) if fem is None
-                                   else np.asarray(fem, bool))
+            self.release[a, b] = self.release[b, a] = _limit(pair.release)   # section's
+            self.master[a, b] = self.master[b, a] = _master(normal, a, b, names, stiffness)
+        self.coupling = _couplings(contact, pairs, np.zeros(nb, bool) if fem is None
+                                   else np.asarray(fem, bool), bodies.converted_into)
 
     @property
     def active(self):
@@ -91,20 +90,39 @@ class ContactRules:
         return PairRules(self.master, self.friction, self.separation)
 
 
-def _couplings(contact, names, fem):
+def listed_pairs(pairs, names, converted_into):
+    """(a, b, pair, normal) for each pair of ``contact.pairs`` and, where an FEM body of
+    it converts into a particle body of its own (``converted_into`` >= 0,
+    pmpm.case.config.converted_bodies), for that body in its place: what the pair says
+    of the elements holds for the particles they become (``normal`` naming the body that
+    stands in)."""
+    out = []
+    for pair in pairs:
+        a, b = (names.index(name) for name in pair.bodies)
+        for x in (a, converted_into[a]):
+            for y in (b, converted_into[b]):
+                if x < 0 or y < 0:
+                    continue
+                normal = {names[a]: names[x], names[b]: names[y]}.get(pair.normal,
+                                                                      pair.normal)
+                out.append((int(x), int(y), pair, normal))
+    return out
+
+
+def _couplings(contact, pairs, fem, converted_into):
     """The coupling code of every pair with an FEM body (see ``ContactRules.coupling``):
     its coupling, or the section's (two FEM bodies on the grid need method 1: the case
-    check refuses the others)."""
+    check refuses the others); an FEM body and the particle body its elements convert
+    into meet on the grid."""
     mixed = fem[:, None] != fem[None, :]
     both = fem[:, None] & fem[None, :] & ~np.eye(len(fem), dtype=bool)
-    coupling = np.where(mixed, COUPLING_CODES[contact.coupling], NO_COUPLING)
-    coupling[both] = COUPLING_CODES[contact.coupling]
-    for pair in contact.pairs:
-        a, b = (names.index(name) for name in pair.bodies)
-        if mixed[a, b]:
+    coupling = np.where(mixed | both, COUPLING_CODES[contact.coupling], NO_COUPLING)
+    for a, b, pair, _ in pairs:
+        if mixed[a, b] or both[a, b]:
             coupling[a, b] = coupling[b, a] = COUPLING_CODES[pair.coupling]
-        elif both[a, b]:
-            coupling[a, b] = coupling[b, a] = COUPLING_CODES[pair.coupling]
+    for a, b in enumerate(converted_into):
+        if b >= 0:
+            coupling[a, b] = coupling[b, a] = GRID_COUPLING
     return coupling.astype(np.int64)
 
 

@@ -75,10 +75,17 @@ ID_STRIDE = MAX_CONVERT_DIVISIONS ** 3
 class ConversionRules:
     """Per body the conversion criteria: ``divisions`` (nb,) int (0: the body does not
     convert), ``eps_p``, ``volume_ratio`` and ``step_ratio`` (nb,) (inf / 0 / 0 where not
-    set)."""
+    set); ``into`` (nb,) the body its elements' particles join: itself, or the particle
+    body added for them where it meets bodies on the grid
+    (pmpm.case.config.converted_bodies)."""
 
     def __init__(self, config):
         nb = len(config.bodies)
+        names = [body.name for body in config.bodies]
+        self.into = np.arange(nb)
+        for b, body in enumerate(config.bodies):
+            if body.born_of:
+                self.into[names.index(body.born_of)] = b
         self.divisions = np.zeros(nb, np.int64)
         self.eps_p = np.full(nb, np.inf)
         self.volume_ratio = np.zeros(nb)
@@ -243,7 +250,7 @@ class Conversion(Transfer):
         for name, column in fem.state._asdict().items():
             columns[name][:] = np.repeat(column[group], k, axis=0)
         body = fem.body[group]
-        columns["body"][:] = np.repeat(body, k)
+        columns["body"][:] = np.repeat(self.rules.into[body], k)
         columns["load"][:] = -1
         columns["id"][:] = (self.id_base + ID_STRIDE * fem.element_id[group][:, None]
                             + np.arange(k)[None, :]).ravel()

@@ -196,7 +196,7 @@ def surface_contact(setup):
         return None
     fem = np.array([b.is_fem for b in config.bodies])
     surface = setup.rules.coupling == SURFACE_COUPLING
-    born = bool(setup.bodies.born_spacing.any())
+    born = bool(setup.bodies.meets_own_mesh.any())
     if not ((surface & (fem[:, None] != fem[None, :])).any() or born):
         return None
     return SurfaceContact(setup.rules, setup.world, setup.points, elements, setup.grid,
@@ -278,7 +278,8 @@ def warms_surface(config):
     """Where surface coupling may meet particles, or particles may be born of an FEM
     body's elements."""
     fem, particles = fem_and_particles(config)
-    born = any(b.born_spacing for b in config.bodies)
+    added = {b.born_of for b in config.bodies}
+    born = any(b.born_spacing and b.name not in added for b in config.bodies)
     return ("surface",) if fem and ("surface" in named_couplings(config) and particles
                                     or born) else ()
 

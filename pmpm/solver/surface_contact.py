@@ -144,7 +144,7 @@ class SurfaceContact(Coupling):
         spacing = grid.h * points.bodies.born_spacing
         # the particles born of an FEM body's elements meet what is left of its own mesh
         # and every FEM body it meets with surface coupling (BodyTable.born_spacing)
-        born = spacing > 0
+        born = points.bodies.meets_own_mesh
         self.touches |= born[:, None] & fem[None, :] & (surface | np.eye(nb, dtype=bool))
         self.masters, self.slave_bodies = self.touches.any(axis=0), self.touches.any(axis=1)
         self.friction = np.ascontiguousarray(rules.friction, np.float64)
