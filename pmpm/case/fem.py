@@ -66,8 +66,11 @@ FEM = {
                          "invert, becomes particles of the same body that carry its material "
                          "state and the velocity of its nodes, conserving mass and momentum; "
                          "they meet what remains of the mesh, and every other FEM body, "
-                         "through surface contact (left out: elements never convert, and an "
-                         "inverted element stops the run)"),
+                         "through surface contact; where the body meets bodies on the grid "
+                         "(contact.coupling grid: AFEMP, CFEMP), they form a particle body "
+                         "of their own, NAME_converted in the outputs, that meets its mesh "
+                         "and the other bodies on the grid (left out: elements never "
+                         "convert, and an inverted element stops the run)"),
     "element_size": Field(number(greater(0)), OMIT, "mm",
                           "edge of the elements a box is cut into: round(edge / "
                           "element_size) elements, at least 1, along each edge of the box; "
@@ -76,10 +79,11 @@ FEM = {
                           "O-grid disc of as many across, swept in round(length / "
                           "element_size) layers, a tube polar blocks, an ogive the same "
                           "disc swept along its shank and, in layers thinning with the "
-                          "radius, its nose, cut flat where the radius is 0.2 of the "
-                          "shank's, each section scaled out to its circle's area so the "
-                          "rod keeps its mass (left out: grid.cell); a mesh file keeps "
-                          "its own elements"),
+                          "radius, its nose down to where the disc's elements are one "
+                          "element_size wide, then closed to the pointed tip by half a "
+                          "cubed ball (nose elements 0.5-3.5 sizes long), each section "
+                          "scaled out to its circle's area so the rod keeps its mass "
+                          "(left out: grid.cell); a mesh file keeps its own elements"),
     "element": Field(choice(ELEMENTS, "element"), "reduced",
                      doc="the hexahedron: `reduced`, one-point integration with the "
                          "hourglass control below (its bending with one or two elements "
