@@ -686,3 +686,22 @@ def test_no_rank_keeps_the_whole_mesh_once_the_run_is_set_up(tmp_path, monkeypat
                  [case, "--out", out, "--quiet", "--restart"]):
         pmpm.app.run_case(World(MPI.COMM_SELF), parse_args([str(a) for a in argv]))
     assert len(whole) > 2 and alive == [0, 0]
+
+
+def test_a_body_of_converted_elements_gets_its_fem_bodys_share_of_lost_mass():
+    """Under grid coupling a converting FEM body's particles are a body of their own,
+    empty at the start: its lost-mass allowance is a share of its FEM body's mass (it
+    was of 0: the first fragment to leave stopped the 2 mm AFEMP perforation)."""
+    from pmpm.case.loader import load_config
+    from pmpm.solver.run import initial_masses
+    case = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "runs",
+                        "ogive_plate_fem.yaml")
+    config = load_config(case, ["contact.coupling=grid", "contact.method=1"])
+    names = [b.name for b in config.bodies]
+    assert names == ["rod", "plate", "rod_converted", "plate_converted"]
+    assert [b.born_of for b in config.bodies] == [None, None, "rod", "plate"]
+    stats = {"rod": {"mass": 81.0}, "plate": {"mass": 860.0},
+             "rod_converted": {"mass": 0.0}, "plate_converted": {"mass": 0.0}}
+    mass0 = initial_masses(config, names, stats, np.zeros(4))
+    assert mass0.tolist() == [81.0, 860.0, 81.0, 860.0]
+    assert [b.name for b in load_config(case).bodies] == ["rod", "plate"]    # IAFEMP

@@ -338,8 +338,10 @@ GRID = {
                                 "share of each body's initial mass that may leave the grid "
                                 "box (its particles are dropped, and counted in the progress "
                                 "lines and summary.json); more stops the run with a fault "
-                                "naming the body. 0: the first particle to leave stops it; "
-                                "perforation cases allow a little for fragments"),
+                                "naming the body (a body of converted elements, "
+                                "NAME_converted: a share of its FEM body's initial mass). 0: "
+                                "the first particle to leave stops it; perforation cases "
+                                "allow a little for fragments"),
 }
 read_grid = Checked(mapping(GRID), _check_grid)
 CASE_FILE_NAME = Marker("the case file's name without .yaml")

@@ -88,7 +88,7 @@ class Runner:
         self.n_elements = sim.n_elements
         names = sim.bodies.names
         stats = sim.body_stats()
-        self.mass0 = np.array([stats[name]["mass"] for name in names]) + sim.decomposition.lost_mass
+        self.mass0 = initial_masses(self.config, names, stats, sim.decomposition.lost_mass)
         self.lost_seen = sim.lost
         self.wall_before = 0.0
         self.last_checkpoint = None
@@ -228,7 +228,8 @@ class Runner:
 
     def check_lost(self, dt):
         """A fault when some body has lost more than grid.lost_mass_fraction of its
-        initial mass out of the grid box (the same on every rank: the sums are global)."""
+        initial mass (a body of converted elements: its FEM body's) out of the grid box
+        (the same on every rank: the sums are global)."""
         d = self.sim.decomposition
         over = np.flatnonzero(d.lost_mass > self.allowance * self.mass0 * (1 + 1e-12))
         if len(over) == 0:
@@ -462,3 +463,14 @@ class Runner:
                 body["bbox_min"] = list(body["centroid"])
                 body["bbox_max"] = list(body["centroid"])
         return stats
+
+
+def initial_masses(config, names, stats, lost):
+    """Per body the mass the lost-mass allowance is a share of: its mass at the start
+    (with what already left), and for a body that holds an FEM body's converted elements
+    (``born_of``, empty at the start) its FEM body's."""
+    mass0 = np.array([stats[name]["mass"] for name in names]) + lost
+    for c, body in enumerate(config.bodies):
+        if body.born_of:
+            mass0[c] = mass0[names.index(body.born_of)]
+    return mass0
