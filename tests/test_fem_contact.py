@@ -283,6 +283,9 @@ def test_a_pair_of_fem_bodies_on_the_grid_needs_method_1_naming_its_key():
         load_config(BARS, [pair, "contact.method=2"])
     assert "contact.pairs[0].coupling: two FEM bodies on the grid" in str(error.value)
     assert load_config(BARS, [pair, "contact.method=1"]).contact.method == 1
+    with pytest.raises(CaseError) as error:                # no release rule for FE nodes
+        load_config(BARS, ["contact.coupling=grid", "contact.method=1", "contact.release=0"])
+    assert "contact.release: two FEM bodies on the grid" in str(error.value)
 
 
 def test_a_pair_normal_naming_a_body_makes_its_faces_the_only_masters():
