@@ -53,14 +53,21 @@ HOOK_CASES = [os.path.join(CASES, name) for name in
     [os.path.join(RUNS, "ogive_plate_fem.yaml")]
 
 
-@pytest.mark.parametrize("case", HOOK_CASES, ids=os.path.basename)
+#: the perforation as the paper's AFEMP: both bodies and their converted particles on
+#: the grid (no surface contact built)
+AFEMP = [os.path.join(RUNS, "ogive_plate_fem.yaml"), "contact.coupling=grid",
+         "contact.method=1"]
+
+
+@pytest.mark.parametrize("case", HOOK_CASES + [AFEMP],
+                         ids=lambda c: os.path.basename(c) if isinstance(c, str) else "afemp")
 def test_the_warm_up_takes_the_kernels_of_every_part_the_case_builds(case):
     """Every part the simulation builds whose entry declares kernels declares them for
     this case (and the warm-up's keywords say so), and the FEM kind's kernels are
     taken: what a part would call in the steps is compiled before them."""
     from pmpm.kernels.warmup import ALL_COUPLINGS, kernels_of
     from pmpm.solver.registry import PARTS, no_kernels
-    sim = set_up(case)
+    sim = set_up(case) if isinstance(case, str) else set_up(case[0], case[1:])
     config = sim.config
     keywords = kernels_of(config)
     assert set(ALL_COUPLINGS) <= set(keywords) and keywords["fem"]
