@@ -361,7 +361,7 @@ CONVERTED = "_converted"
 
 def converted_bodies(case, bodies):
     """For each FEM body of ``bodies`` that converts and meets some body on the grid
-    (``grid_coupled_fem``), a particle body of its material named NAME_converted that
+    (``fem_bodies_on_grid``), a particle body of its material named NAME_converted that
     takes the particles its elements become (``born_of``), appended to the case's bodies.
 
     On the grid they must be a body of their own. In their FEM body's own field at a
@@ -371,7 +371,7 @@ def converted_bodies(case, bodies):
     the first step after a conversion). As a body of their own they meet the mesh they
     came from, and every other body, through the multi-velocity grid contact, as
     particles that surface contact keeps out of their own mesh's faces under IAFEMP."""
-    on_grid = grid_coupled_fem(case)
+    on_grid = fem_bodies_on_grid(case)
     return tuple(BodyConfig(name=body.name + CONVERTED, material=body.material,
                             geometry=frozen({"type": "converted"}),
                             particles_per_cell=body.particles_per_cell,
@@ -381,7 +381,7 @@ def converted_bodies(case, bodies):
                  for body in bodies if body.convert is not None and body.name in on_grid)
 
 
-def grid_coupled_fem(case):
+def fem_bodies_on_grid(case):
     """The names of the FEM bodies that meet some other body on the grid: by
     ``contact.coupling`` unless a pair of ``contact.pairs`` says otherwise."""
     contact, bodies = case["contact"], case["bodies"]
