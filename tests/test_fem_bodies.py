@@ -705,3 +705,15 @@ def test_a_body_of_converted_elements_gets_its_fem_bodys_share_of_lost_mass():
     mass0 = initial_masses(config, names, stats, np.zeros(4))
     assert mass0.tolist() == [81.0, 860.0, 81.0, 860.0]
     assert [b.name for b in load_config(case).bodies] == ["rod", "plate"]    # IAFEMP
+
+
+def test_a_body_named_as_a_converted_body_is_refused_naming_its_key():
+    from pmpm.case.loader import load_config
+    case = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "runs",
+                        "ogive_plate_fem.yaml")
+    with pytest.raises(CaseError) as error:
+        load_config(case, ["contact.coupling=grid", "contact.method=1",
+                           "bodies[0].name=plate_converted"])
+    assert error.value.problems == [
+        "bodies[0].name: 'plate_converted' is the body that FEM body 'plate' (bodies[1]) "
+        "converts into on the grid; choose another name"]

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from .bodies import BODY
 from .contact import CONTACT, PAIR
-from .fem import CONSTRAINT, CONVERT, FEM
+from .fem import CONSTRAINT, CONVERT, CONVERTED, FEM, fem_bodies_on_grid
 from .fields import unwrap
 from .rigid import RIGID
 from .schema import (DECOMPOSITION, FACES, GRID, LOAD, OUTPUT, REGION, TIME, TOP_LEVEL,
@@ -355,10 +355,6 @@ class BodyConfig:
         return float(self.fem.element_size) / self.convert.particles_per_direction
 
 
-#: what the name of the particle body that holds an FEM body's converted elements adds
-CONVERTED = "_converted"
-
-
 def converted_bodies(case, bodies):
     """For each FEM body of ``bodies`` that converts and meets some body on the grid
     (``fem_bodies_on_grid``), a particle body of its material named NAME_converted that
@@ -379,22 +375,6 @@ def converted_bodies(case, bodies):
                             method="particles", fem=None, rigid=record(RigidConfig, {}),
                             born_of=body.name)
                  for body in bodies if body.convert is not None and body.name in on_grid)
-
-
-def fem_bodies_on_grid(case):
-    """The names of the FEM bodies that meet some other body on the grid: by
-    ``contact.coupling`` unless a pair of ``contact.pairs`` says otherwise."""
-    contact, bodies = case["contact"], case["bodies"]
-    fem = {b["name"] for b in bodies if b["method"] == "fem"}
-    names = [b["name"] for b in bodies]
-    ways = {frozenset((a, b)): contact["coupling"] for i, a in enumerate(names)
-            for b in names[i + 1:] if a in fem or b in fem}
-    for pair in contact["pairs"]:
-        key = frozenset(pair["bodies"])
-        if key in ways:
-            ways[key] = pair.get("coupling") or contact["coupling"]
-    return {name for key, way in ways.items() if way == "grid" for name in key
-            if name in fem}
 
 
 @mirrors(TOP_LEVEL, case="the whole validated case, read-only (``thawed(config.case)`` is "

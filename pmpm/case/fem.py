@@ -157,6 +157,7 @@ def check_fem_bodies(case, case_dir, check_geometry, problems):
     if fem_names:
         check_coupling(case, fem_names, problems)
         check_mixed_coupling(case, fem_names, problems)
+        check_converted_names(case, problems)
 
 
 def check_element(fem, path, problems):
@@ -341,6 +342,49 @@ def check_coupling(case, fem_names, problems):
         if valid(window, "follow") and window["follow"] in fem_names:
             problems.add(f"grid.windows[{i}].follow", f"'{window['follow']}' is an FEM "
                          f"body: a window follows particle bodies only")
+
+
+#: what the name of the particle body that holds an FEM body's converted elements adds
+#: (pmpm.case.config.converted_bodies)
+CONVERTED = "_converted"
+
+
+def fem_bodies_on_grid(case):
+    """The names of the FEM bodies that meet some other body on the grid: by
+    ``contact.coupling`` unless a pair of ``contact.pairs`` says otherwise (a validated
+    contact section and body names)."""
+    contact, bodies = case["contact"], case["bodies"]
+    fem = {b["name"] for b in bodies if b["method"] == "fem"}
+    names = [b["name"] for b in bodies]
+    ways = {frozenset((a, b)): contact["coupling"] for i, a in enumerate(names)
+            for b in names[i + 1:] if a in fem or b in fem}
+    for pair in contact["pairs"]:
+        key = frozenset(pair["bodies"])
+        if key in ways:
+            ways[key] = pair.get("coupling") or contact["coupling"]
+    return {name for key, way in ways.items() if way == "grid" for name in key
+            if name in fem}
+
+
+def check_converted_names(case, problems):
+    """A converting FEM body on the grid adds the particle body NAME_converted for its
+    elements' particles: no body of the case may already have that name."""
+    contact, bodies = case["contact"], case["bodies"]
+    if bodies is INVALID or not valid(contact, "coupling", "pairs", "method") or \
+            not contact["method"] or not all(valid(b, "name", "method") for b in bodies):
+        return
+    if not all(isinstance(p, dict) and valid(p, "bodies") for p in contact["pairs"]):
+        return
+    names = [b["name"] for b in bodies]
+    on_grid = fem_bodies_on_grid(case)
+    for i, body in enumerate(bodies):
+        fem = body.get("fem")
+        if body["name"] in on_grid and isinstance(fem, dict) and fem.get("convert") \
+                and body["name"] + CONVERTED in names:
+            problems.add(f"bodies[{names.index(body['name'] + CONVERTED)}].name",
+                         f"'{body['name'] + CONVERTED}' is the body that FEM body "
+                         f"'{body['name']}' (bodies[{i}]) converts into on the grid; "
+                         f"choose another name")
 
 
 def check_mixed_coupling(case, fem_names, problems):
