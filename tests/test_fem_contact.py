@@ -417,11 +417,12 @@ def test_two_fem_bars_on_the_grid_part_at_about_the_1d_speeds(bars_on_grid):
     """1D: the striker stops, the target leaves at v. On the grid each contact node
     stops the two bodies' approach together (seed 001's rule, no release rule for FE
     nodes), an inelastic blow per node and step: measured striker 0.147 v, target
-    0.853 v, 21 % of the energy gone (two particle bars on the grid with seed 001's
-    rule: striker 0.11 v, docs/validation/two_bars.md). Tolerances: 0.2 v; the energy
-    never above its start."""
+    0.853 v, 21.5 % of the energy gone (two particle bars on the grid with seed 001's
+    rule: striker 0.11 v, docs/validation/two_bars.md). Tolerances: 0.17 v of the 1D
+    answer, at most 25 % of the energy lost and never above its start."""
     _, e0, _, rows, _ = bars_on_grid
     mass = RHO * LENGTH * AREA
-    assert abs(rows[-1, 1] / mass) < 0.2 * V
-    assert abs(rows[-1, 2] / mass - V) < 0.2 * V
+    assert abs(rows[-1, 1] / mass) < 0.17 * V
+    assert abs(rows[-1, 2] / mass - V) < 0.17 * V
     assert rows[:, 3].max() <= e0 * (1 + 1e-9)
+    assert rows[-1, 3] >= 0.75 * e0

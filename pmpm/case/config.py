@@ -11,6 +11,8 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numpy as np
+
 from .bodies import BODY
 from .contact import CONTACT, PAIR
 from .fem import CONSTRAINT, CONVERT, CONVERTED, FEM, fem_bodies_on_grid
@@ -408,6 +410,18 @@ class CaseConfig:
             time=record(TimeConfig, case["time"]), output=record(OutputConfig, case["output"]),
             decomposition=record(DecompositionConfig, case["decomposition"]),
             contact=ContactConfig.from_case(case["contact"]), case=frozen(case))
+
+
+def converted_into(bodies):
+    """(nb,) int64: per body of ``bodies`` (BodyConfig) the index of the particle body
+    that takes its converted elements' particles (:func:`converted_bodies`), or -1 where
+    they stay in the body."""
+    names = [body.name for body in bodies]
+    into = np.full(len(bodies), -1, np.int64)
+    for i, body in enumerate(bodies):
+        if body.born_of:
+            into[names.index(body.born_of)] = i
+    return into
 
 
 def with_converted(bodies, case):

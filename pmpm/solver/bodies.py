@@ -1,6 +1,7 @@
 """Bodies: their materials packed for the kernels, and their initial particles."""
 import numpy as np
 
+from ..case.config import converted_into
 from ..case.expressions import ExpressionError, evaluate_field
 from ..materials import catalog, layout
 from ..particles import particle_store
@@ -33,10 +34,7 @@ class BodyTable:
                                       / config.grid.cell for b in bodies])
         #: per body the index of the particle body that takes its converted elements'
         #: particles (pmpm.case.config.converted_bodies), or -1: they stay in the body
-        self.converted_into = np.full(len(bodies), -1, np.int64)
-        for i, body in enumerate(bodies):
-            if body.born_of:
-                self.converted_into[self.names.index(body.born_of)] = i
+        self.converted_into = converted_into(bodies)
         #: the FEM bodies whose converted particles stay in them and meet what is left
         #: of their own mesh by surface contact (IAFEMP)
         self.meets_own_mesh = (self.born_spacing > 0) & (self.converted_into < 0) & \

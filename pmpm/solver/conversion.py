@@ -59,6 +59,8 @@ import sys
 
 import numpy as np
 
+from ..case.config import converted_into
+
 from ..case.fem import MAX_CONVERT_DIVISIONS
 from ..particles.store import COLUMNS, empty_column
 from .bodies import refinement
@@ -81,11 +83,8 @@ class ConversionRules:
 
     def __init__(self, config):
         nb = len(config.bodies)
-        names = [body.name for body in config.bodies]
-        self.into = np.arange(nb)
-        for b, body in enumerate(config.bodies):
-            if body.born_of:
-                self.into[names.index(body.born_of)] = b
+        added = converted_into(config.bodies)
+        self.into = np.where(added >= 0, added, np.arange(nb))
         self.divisions = np.zeros(nb, np.int64)
         self.eps_p = np.full(nb, np.inf)
         self.volume_ratio = np.zeros(nb)

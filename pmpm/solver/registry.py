@@ -29,6 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..case.config import converted_into
 from .contact import SURFACE_COUPLING, GridContact, start_shares
 from .conversion import build_conversion
 from .couplings import TiedInterface
@@ -278,8 +279,8 @@ def warms_surface(config):
     """Where surface coupling may meet particles, or particles may be born of an FEM
     body's elements."""
     fem, particles = fem_and_particles(config)
-    added = {b.born_of for b in config.bodies}
-    born = any(b.born_spacing and b.name not in added for b in config.bodies)
+    born = any(b.born_spacing and into < 0
+               for b, into in zip(config.bodies, converted_into(config.bodies)))
     return ("surface",) if fem and ("surface" in named_couplings(config) and particles
                                     or born) else ()
 

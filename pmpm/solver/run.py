@@ -5,6 +5,7 @@ import time as clock
 import numpy as np
 
 from .. import io
+from ..case.config import converted_into
 from ..io.derived import in_precision, with_stress_invariants
 from ..io.elements_h5 import ElementWriter
 from ..io.forces import ForcesWriter
@@ -111,7 +112,7 @@ class Runner:
         self.last_checkpoint = scalars["step"]
         self.watch.restore(scalars.get("energy_watch"))
         if "body_mass0" in scalars:
-            self.mass0 = converted_share(self.config, self.sim.bodies.names,
+            self.mass0 = converted_share(self.config,
                                          np.asarray(scalars["body_mass0"], np.float64))
         if self.world.is_root:
             self.load_work.restore(self.watch.load_work, scalars.get("load_work"))
@@ -470,14 +471,13 @@ def initial_masses(config, names, stats, lost):
     """Per body the mass the lost-mass allowance is a share of: its mass at the start
     (with what already left), and for a body that holds an FEM body's converted elements
     (``born_of``, empty at the start) its FEM body's."""
-    return converted_share(config, names,
-                           np.array([stats[name]["mass"] for name in names]) + lost)
+    return converted_share(config, np.array([stats[name]["mass"] for name in names]) + lost)
 
 
-def converted_share(config, names, mass0):
+def converted_share(config, mass0):
     """``mass0`` with each body of converted elements given its FEM body's (also for a
     checkpoint written before it was)."""
-    for c, body in enumerate(config.bodies):
-        if body.born_of:
-            mass0[c] = mass0[names.index(body.born_of)]
+    into = converted_into(config.bodies)
+    for b in np.flatnonzero(into >= 0):
+        mass0[into[b]] = mass0[b]
     return mass0
