@@ -334,12 +334,15 @@ def test_a_damped_block_on_an_inclined_plate_with_mu_above_tan_a_does_not_creep(
     assert np.ptp([r["block.x"] for r in rows]) < 1e-6        # m: 1 um; sliding: 20 mm
 
 
-def test_three_bodies_at_a_node_keep_momentum_through_the_contact():
+@pytest.mark.parametrize("method", [1, 2])
+def test_three_bodies_at_a_node_keep_momentum_through_the_contact(method):
     """Three bodies at a node, each approaching the centre of mass along its own normal
     (not opposite pairs): each is corrected against the centre of mass, and without the
     balance their corrections summed to a net force (found with an FEM rod, its plate
     and the plate's converted particles at one node). The contact now keeps momentum to
-    round-off at three bodies, and two bodies are corrected as before (bit for bit)."""
+    round-off at three bodies, and two bodies are corrected as before (bit for bit).
+    Method 2's start correction likewise (before its balance: a net change of a third of
+    the largest body's momentum at three bodies)."""
     rng = np.random.default_rng(7)
     dt = 1e-3
     for nb in (2, 3):
@@ -358,11 +361,15 @@ def test_three_bodies_at_a_node_keep_momentum_through_the_contact():
         gnew[0, :3] = gvel[0] + gnew[0, 3:] * dt
         rigid = np.zeros(nb, np.bool_)
         cvel, cnorm, cnew = np.empty((1, nb, 3)), np.empty((1, nb, 3)), np.empty((1, nb, 6))
-        contact_start(cnodal, np.arange(1), gvel, np.full((nb, nb), -1), NO_CHECK, rigid, 1,
-                      0.0, *ONE_NODE, cvel, cnorm)
+        contact_start(cnodal, np.arange(1), gvel, np.full((nb, nb), -1), NO_CHECK, rigid,
+                      method, 0.0, *ONE_NODE, cvel, cnorm)
+        started = (cnodal[0, :, :1] * cvel[0] - cnodal[0, :, 1:4]).sum(0)
+        assert np.abs(started).max() < 1e-12 * np.abs(cnodal[0, :, 1:4]).max()
+        if method == 2:                                         # the start correction acted
+            assert np.abs(cvel[0] - cnodal[0, :, 1:4] / cnodal[0, :, :1]).max() > 1e-2
         contact_end(cnodal, cvel, cnorm, cforce, np.arange(1), gvel, gnew,
                     np.zeros((nb, nb)), NO_CHECK, rigid, False, dt, 0.0, *ONE_NODE, cnew)
         change = (cnodal[0, :, :1] * (cnew[0, :, 3:] - cforce[0] / cnodal[0, :, :1])).sum(0)
         assert np.abs(change).max() < 1e-12 * np.abs(cforce).max()
-        moved = cnew[0, :, :3] - (cvel[0] + cforce[0] / cnodal[0, :, :1] * dt)
+        moved = cnew[0, :, :3] - (cnodal[0, :, 1:4] + cforce[0] * dt) / cnodal[0, :, :1]
         assert np.abs(moved).max() > 1e-3                       # the contact acted

@@ -264,6 +264,47 @@ def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block, flat=0.
                         constrain_coded(vec, faces[n])
             for d in range(3):
                 cvel[s, b, d] = vec[d]
+        if method == 2:
+            _balance_start(cnodal, cvel, body_rigid, m_tiny, faces[n], s, vec, rest)
+
+
+@njit(cache=True)
+def _balance_start(cnodal, cvel, body_rigid, m_tiny, code, s, net, own):
+    """Method 2's start corrections at slot ``s`` (each approaching body's normal
+    velocity set to the centre of mass's), balanced as :func:`_balance_corrections`
+    balances the end's. ``net``, ``own``: scratch 3-vectors."""
+    total = _net_change(cnodal, cnodal, 1, cvel, 0, body_rigid, m_tiny, code, s, net, own)
+    if total > 0.0:
+        for b in range(cnodal.shape[1]):
+            if cnodal[s, b, 0] > m_tiny:
+                for d in range(3):
+                    cvel[s, b, d] -= net[d] / total
+
+
+@njit(cache=True)
+def _net_change(cnodal, before, at, after, to, body_rigid, m_tiny, code, s, net, own):
+    """``net`` = sum over the bodies b at slot ``s`` of m_b times the change of their
+    velocity by the contact: ``after[s, b, to:to + 3]`` less ``before[s, b, at:at + 3]``
+    / m_b within the node's faces. Returns the node's mass where three bodies or more
+    meet, else 0 (no balance needed: two bodies' corrections cancel, and a rigid body
+    imposes its velocity)."""
+    present, total = 0, 0.0
+    for d in range(3):
+        net[d] = 0.0
+    for b in range(cnodal.shape[1]):
+        m = cnodal[s, b, 0]
+        if m <= m_tiny:
+            continue
+        if body_rigid[b]:
+            return 0.0
+        present += 1
+        total += m
+        for d in range(3):
+            own[d] = before[s, b, at + d] / m
+        constrain_coded(own, code)
+        for d in range(3):
+            net[d] += m * (after[s, b, to + d] - own[d])
+    return total if present >= 3 else 0.0
 
 
 @njit(cache=True)
@@ -344,23 +385,8 @@ def _balance_corrections(cnodal, cforce, cnew, body_rigid, m_tiny, code, s, dt, 
     particles at one node: 0.2 % of the momentum a step). Nodes of two bodies, and
     nodes with a rigid body (which imposes its velocity), are left as they are.
     ``net``, ``own``: scratch 3-vectors."""
-    present, total = 0, 0.0
-    for d in range(3):
-        net[d] = 0.0
-    for b in range(cnodal.shape[1]):
-        m = cnodal[s, b, 0]
-        if m <= m_tiny:
-            continue
-        if body_rigid[b]:
-            return
-        present += 1
-        total += m
-        for d in range(3):
-            own[d] = cforce[s, b, d] / m
-        constrain_coded(own, code)
-        for d in range(3):
-            net[d] += m * (cnew[s, b, 3 + d] - own[d])
-    if present < 3:
+    total = _net_change(cnodal, cforce, 0, cnew, 3, body_rigid, m_tiny, code, s, net, own)
+    if total == 0.0:
         return
     for b in range(cnodal.shape[1]):
         if cnodal[s, b, 0] <= m_tiny:
