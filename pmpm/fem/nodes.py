@@ -58,13 +58,13 @@ def face_of_component(x, n, i, imp, axis, side, plane, fixed, tol):
     for f in range(axis.shape[0]):
         if axis[f] == i and side[f] * imp < 0.0:
             out = 2 * i + (1 if side[f] > 0 else 0)
-    if out >= 0:
-        return out
-    for f in range(axis.shape[0]):
-        d = axis[f]
-        if fixed[f] and d != i and side[f] * (plane[f] - x[n, d]) <= tol:
-            return 2 * d + (1 if side[f] > 0 else 0)
-    return -1
+    if out < 0:
+        for f in range(axis.shape[0]):
+            d = axis[f]
+            if out < 0 and fixed[f] and d != i and side[f] * (plane[f] - x[n, d]) <= tol:
+                out = 2 * d + (1 if side[f] > 0 else 0)
+    return out                  # one exit: an early return inside the loops made Numba
+    #                             keep the arrays' reference counting in the caller's loop
 
 
 @njit(cache=True)
@@ -74,16 +74,21 @@ def advance_and_hold(x, v, force, mass, fixed_dof, movable, axis, side, plane, f
     zero), then the faces' conditions on the ``movable`` nodes (:func:`hold_node`);
     with ``log`` (a force log), the ``counted`` nodes add their reaction impulse
     m (v - v_before) - dt f to ``support[node_body]`` (a node with a held component) or,
-    per component, to ``face[face number, component]`` of the face that pushed it."""
+    per component, to ``face[face number, component]`` of the face that pushed it. A node
+    that nothing held adds nothing (m (v - v_before) - dt f is round-off there)."""
     for n in range(v.shape[0]):
         b0, b1, b2 = v[n, 0], v[n, 1], v[n, 2]
         inv = dt * fdiv(1.0, mass[n])
         for i in range(3):
             v[n, i] = 0.0 if fixed_dof[n, i] else v[n, i] + force[n, i] * inv
+        a0, a1, a2 = v[n, 0], v[n, 1], v[n, 2]
         if movable[n]:
             hold_node(x, v, n, axis, side, plane, fixed, dt, tol)
         if not (log and counted[n]):
             continue
+        if (a0 == v[n, 0] and a1 == v[n, 1] and a2 == v[n, 2] and not (
+                fixed_dof[n, 0] or fixed_dof[n, 1] or fixed_dof[n, 2])):
+            continue           # held by nothing: its "reaction" would be round-off
         m = mass[n]
         i0 = m * (v[n, 0] - b0) - dt * force[n, 0]
         i1 = m * (v[n, 1] - b1) - dt * force[n, 1]

@@ -75,21 +75,21 @@ def _face_of_component(code, g, block, d, mirror_face):
     of nodes (a node beyond a plane of symmetry and its image), which cancel, stay
     together on one face, even at a corner of two planes."""
     if g[d] <= 0 and block.boundary[2 * d] != 0:
-        return 2 * d
-    if g[d] >= block.n_cells[d] and block.boundary[2 * d + 1] != 0:
-        return 2 * d + 1
-    first = -1
-    for e in range(3):
-        kind = (code >> (2 * e)) & 3
-        if kind == FIXED or kind == SLIP:
-            face = 2 * e + ((code >> (UPPER + e)) & 1)
-            if kind == FIXED:
-                return face
-            if first < 0:
-                first = face
-    if mirror_face >= 0:
-        return mirror_face
-    return first
+        out = 2 * d
+    elif g[d] >= block.n_cells[d] and block.boundary[2 * d + 1] != 0:
+        out = 2 * d + 1
+    else:
+        first, fixed = -1, -1
+        for e in range(3):
+            kind = (code >> (2 * e)) & 3
+            if kind == FIXED or kind == SLIP:
+                face = 2 * e + ((code >> (UPPER + e)) & 1)
+                if kind == FIXED and fixed < 0:
+                    fixed = face
+                if first < 0:
+                    first = face
+        out = fixed if fixed >= 0 else (mirror_face if mirror_face >= 0 else first)
+    return out          # one exit (pmpm.fem.elements._block_forces says why)
 
 
 @njit(cache=True)
