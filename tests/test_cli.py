@@ -122,6 +122,7 @@ def test_help_and_bad_input_stop_before_mpi_and_numba_load(tmp_path, kind):
     assert "mpi4py.MPI" not in names
     assert "numba" not in names
     assert "h5py" not in names
+    assert "importlib.metadata" not in names          # --version's only (20-30 ms)
 
 
 @pytest.mark.parametrize("ranks", RANKS)
