@@ -94,7 +94,7 @@ def test_the_initial_cut_balances_the_weighted_work():
     (b, mesh), = meshes.items()
     centroids = mesh.points[mesh.hexes].mean(axis=1)
     w = ww.body_weights(config, BodyTable(config).rigid)[b]
-    assert w >= 2.0                           # an element-step is dear against the hats
+    assert w >= 1.5                           # an element-step is dear against the hats
     assert x[:, 0].max() < centroids[:, 0].min()       # they lie apart along x
     cells = grid.cells_of(np.concatenate([x, centroids]))[:, 0]
     weights = np.concatenate([np.ones(len(x)), np.full(len(centroids), w)])

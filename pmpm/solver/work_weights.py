@@ -2,23 +2,23 @@
 each FEM element counts with in the slabs' balance (the initial cut and every rebalance;
 issue 24). A particle counts 1, so particle-only cases cut exactly as before.
 
-An element-step costs more than a particle-step, and how much more depends on the
-element formulation and on the particles' shape functions (a 27-node particle touches 27
-nodes where a hat touches 8). The costs below were measured once, on one rank, with
+An element-step costs more than a hat particle-step and less than a 27-node one: the
+ratio depends on the element formulation and on the particles' shape functions (a
+27-node particle touches 27 nodes where a hat touches 8). The costs below were measured once, on one rank, with
 ``scripts/element_weights.py``: the same copper block (Johnson-Cook + Mie-Grueneisen +
 bulk viscosity, 190 m/s onto a slip wall) as 125,000 particles with each shape function
 and as 125,000 hexahedra with each formulation, the variants interleaved, medians of 3
-repeats (the project's 2-core x86_64 machine, 2026-12-04 04:45-04:52 UTC with one other
-job on the second core, samples within 5 % of their medians; after the FEM element step's
-1.7-fold speed-up of issue 25, which cut the element weights by about 40 %;
+repeats (the project's 2-core x86_64 machine, 2026-12-05 08:47-08:58 UTC with one other
+job on the second core; after the FE nodes' force log and the element blocks lost
+Numba's reference counting in their loops, which cut an element-step by about a third;
 docs/performance-notes.md "Elements in the rebalance (issue 24)"). The weights they give:
 
 =================  ======  =====  =======
 element            linear  gimp   bspline
 =================  ======  =====  =======
-reduced, viscous   2.25    1.25   1.25
-reduced, stiffness 2.25    1.25   1.25
-assumed_strain     2.75    1.5    1.75
+reduced, viscous   1.5     0.75   0.75
+reduced, stiffness 1.5     0.75   0.75
+assumed_strain     2.75    1.5    1.5
 rigid              0.25    0.25   0.25
 =================  ======  =====  =======
 
@@ -36,11 +36,11 @@ import numpy as np
 
 #: seconds per particle-step by shape function (scripts/element_weights.py, medians of 3;
 #: one other job on the second core: samples within 5 % of their median)
-PARTICLE_STEP_S = {"linear": 0.273e-6, "gimp": 0.528e-6, "bspline": 0.453e-6}
+PARTICLE_STEP_S = {"linear": 0.146e-6, "gimp": 0.286e-6, "bspline": 0.274e-6}
 #: seconds per element-step by element formulation (the same runs): the reduced element
 #: with viscous or stiffness hourglass control, the assumed-strain element, a rigid body
-ELEMENT_STEP_S = {"reduced_viscous": 0.615e-6, "reduced_stiffness": 0.610e-6,
-                  "assumed_strain": 0.742e-6, "rigid": 0.045e-6}
+ELEMENT_STEP_S = {"reduced_viscous": 0.234e-6, "reduced_stiffness": 0.234e-6,
+                  "assumed_strain": 0.408e-6, "rigid": 0.027e-6}
 #: the resolution of the weights (see the module's docstring)
 QUANTUM = 0.25
 
