@@ -176,13 +176,22 @@ def free_bytes(directory):
 def check_size(world, config, n_particles, fastest, out, t0=0.0, first_frame=True,
                elements=(0, 0)):
     """Estimate the run and raise SetupError naming the keys of the limits it exceeds
-    (collective: rank 0 decides; ``fastest`` is a function giving the coarse-grid speed,
-    called on rank 0 only). Returns the line to print before the run (on rank 0; None
-    on the others)."""
+    (collective: rank 0 decides; ``fastest`` is a function giving the coarse-grid speed).
+    ``fastest`` runs on every rank: with FEM bodies it loads the elements' stability
+    kernel, and with it Numba's target context (about 0.2 s), which every rank needs
+    before its warm-up anyway; called on rank 0 alone, the others waited for it here and
+    rank 0 then waited for theirs (0.24 s more on 2 ranks). Returns the line to print
+    before the run (on rank 0; None on the others)."""
     result = None
+    try:
+        speed, failure = fastest(), None
+    except SetupError as error:
+        speed, failure = None, error
     if world.is_root:
         try:
-            size = estimate(config, n_particles, fastest(), t0, first_frame, elements)
+            if failure is not None:
+                raise failure
+            size = estimate(config, n_particles, speed, t0, first_frame, elements)
         except SetupError as error:
             result = (error.problems, None)
         else:
