@@ -264,21 +264,28 @@ def contact_start(slots, gvel, rules, body_rigid, method, m_tiny, block, flat=0.
                         constrain_coded(vec, faces[n])
             for d in range(3):
                 cvel[s, b, d] = vec[d]
-        if method == 2:
-            _balance_start(cnodal, cvel, body_rigid, m_tiny, faces[n], s, vec, rest)
 
 
 @njit(cache=True)
-def _balance_start(cnodal, cvel, body_rigid, m_tiny, code, s, net, own):
-    """Method 2's start corrections at slot ``s`` (each approaching body's normal
-    velocity set to the centre of mass's), balanced as :func:`_balance_corrections`
-    balances the end's. ``net``, ``own``: scratch 3-vectors."""
-    total = _net_change(cnodal, cnodal, 1, cvel, 0, body_rigid, m_tiny, code, s, net, own)
-    if total > 0.0:
-        for b in range(cnodal.shape[1]):
-            if cnodal[s, b, 0] > m_tiny:
-                for d in range(3):
-                    cvel[s, b, d] -= net[d] / total
+def balance_start(slots, body_rigid, m_tiny, block):
+    """Method 2's start corrections (:func:`contact_start`, each approaching body's
+    normal velocity set to the centre of mass's; less those the release rule undid,
+    :func:`release_open_gaps`), balanced as :func:`_balance_corrections` balances the
+    end's: where three bodies or more meet at a slot, their net change of momentum, per
+    unit of the node's mass, is taken off every body there. Two bodies' corrections
+    cancel (and the release rule's gap is the same for both), and a rigid body imposes
+    its velocity: those slots are left as they are. Writes ``slots.cvel``."""
+    cnodal, slot_nodes, cvel, _, _, _ = slots
+    net, own = np.empty(3), np.empty(3)
+    for s in range(slot_nodes.shape[0]):
+        code = block.faces[slot_nodes[s]]
+        total = _net_change(cnodal, cnodal, 1, cvel, 0, body_rigid, m_tiny, code, s, net,
+                            own)
+        if total > 0.0:
+            for b in range(cnodal.shape[1]):
+                if cnodal[s, b, 0] > m_tiny:
+                    for d in range(3):
+                        cvel[s, b, d] -= net[d] / total
 
 
 @njit(cache=True)

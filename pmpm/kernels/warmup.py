@@ -189,6 +189,7 @@ def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR,
         contact.contact_volumes(pts, np.ones(len(pts.x)), geo, slot_of, cvol, 0, layers)
     contact.release_open_gaps(slots, cext, cvol, np.zeros((1, 1)), geo.half_width, 0.0,
                               block)
+    contact.balance_start(slots, rigid, 0.0, block)
     return slots, ContactView(slot_of, cvel, cforce, cnew)
 
 

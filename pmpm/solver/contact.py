@@ -189,6 +189,8 @@ class GridContact(Coupling):
             if self.rules.releases:
                 kc.release_open_gaps(f.slots(), f.cext, f.cvol, self.rules.release,
                                      s.geometry.half_width, self.m_tiny, s.nodes)
+            if self.rules.method == 2 and nb > 2:
+                kc.balance_start(f.slots(), self.bodies.grid_rigid, self.m_tiny, s.nodes)
             f.cforce = f.slot_array("cforce", 3, nb)
             s.kept.pop("cforce", None)         # until a layered force scatter keeps some
 
