@@ -6,6 +6,7 @@ Run with: mpirun -n 2 python -m pytest --with-mpi tests/test_ogive_plate_fem_mpi
 import numpy as np
 import pytest
 
+from pmpm.solver.step_limit import ElementStepLimit
 from test_conversion_mpi import comm_world, state
 from test_ogive_plate_fem import run, simulation
 
@@ -31,6 +32,15 @@ def test_n_ranks_give_the_one_rank_answer_through_the_perforation():
     assert_same_rows(sims, world)
     born = world.allgather(int(sims["n"].particles.n))
     assert min(born) > 0                      # conversions on every rank
+    limits = {}
+    for key, sim in sims.items():            # summary.json's element_step_limit
+        limit = ElementStepLimit(sim.world, sim.bodies.names)
+        limit.observe(sim.elements, sim.time, sim.step_count, 0.0)
+        limits[key] = limit.summary()
+    one, n = limits["one"], limits["n"]
+    assert n.pop("stable_step") == pytest.approx(one.pop("stable_step"), rel=1e-10)
+    assert np.allclose(n.pop("centroid"), one.pop("centroid"), rtol=0, atol=1e-10)
+    assert n == one and one["body"] in ("rod", "plate")
 
 
 @pytest.mark.mpi(min_size=2)

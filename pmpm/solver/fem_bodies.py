@@ -374,6 +374,20 @@ class FemBodies(BodyKind):
         if bad >= 0 and self.fault is None:
             self.note_fault(bad, FAULTS[why])
 
+    def stiffest_element(self):
+        """This rank's element with the largest stable rate of the last force pass (the
+        shortest stable step; of equal rates the lowest global id): (rate, global id,
+        body, number within its body, centroid), or None without elements or before a
+        force pass (pmpm.solver.step_limit)."""
+        if not len(self.rates) or not self.rates.max() > 0.0:
+            return None
+        top = np.flatnonzero(self.rates == self.rates.max())
+        e = int(top[np.argmin(self.element_id[top])])
+        b = int(self.body[e])
+        centroid = self.x[self.hexes[e]].mean(axis=0)
+        return (float(self.rates[e]), int(self.element_id[e]), b,
+                int(self.element_id[e]) - self.first_element[b], centroid.tolist())
+
     def rigid_nodes(self):
         """The nodes of rigid FEM bodies (material ``rigid``): they move with their
         initial velocity, as rigid particle bodies do, or in the axes ``rigid.free``

@@ -19,6 +19,7 @@ from .memory import memory_summary
 from .probes import COLUMNS as PROBE_COLUMNS, Probes
 from .progress import Progress
 from .startup import since_process_start
+from .step_limit import ElementStepLimit
 
 SORT_EVERY = 20
 
@@ -98,6 +99,9 @@ class Runner:
                              restart.get("probes") if restart else None, sim.elements,
                              sim.exact) \
             if self.output.probes else None
+        self.step_limit = ElementStepLimit(
+            self.world, names, restart.get("element_step_limit") if restart else None) \
+            if sim.elements else None
         if restart:
             self.restore(restart)
 
@@ -317,6 +321,9 @@ class Runner:
             raise SolverError(self.fault_message(fault, dt, taken=True))
         stats = self.sim.body_stats()
         self.failed = sum(s["n_failed"] for s in stats.values())
+        if self.step_limit:
+            self.step_limit.observe(self.sim.elements, self.sim.time, self.sim.step_count,
+                                    self.step_dt)
         if self.history is not None:
             rows = {name: s["centroid"] + s["velocity"] + body_energies(s)
                     for name, s in stats.items()}
@@ -345,7 +352,9 @@ class Runner:
                    "wall_s": self.wall(), "energy_watch": self.watch.state(),
                    "body_mass0": self.mass0.tolist(),
                    "probes": self.probes.state() if self.probes else {},
-                   "load_work": self.load_work.state(), **sim.restart_state()}
+                   "load_work": self.load_work.state(),
+                   "element_step_limit": self.step_limit.state() if self.step_limit else None,
+                   **sim.restart_state()}
         case = None if self.case is None else {"text": self.case_text, "case": self.case}
         io.save_checkpoint(self.out, self.world.raw, scalars, sim.particles.columns(),
                            case=case, groups=sim.checkpoint_groups())
@@ -434,8 +443,9 @@ class Runner:
     def element_summary(self):
         """With FEM bodies: their element count, element-steps per second of stepping
         (the whole step's wall time, particles included, every step), each rank's
-        elements at the end, and what an element of each FEM body weighs in the slabs'
-        balance, in particle-steps (solver.work_weights)."""
+        elements at the end, what an element of each FEM body weighs in the slabs'
+        balance, in particle-steps (solver.work_weights), and the element that had the
+        shortest stable step at a history row (solver.step_limit)."""
         if not self.sim.elements:
             return {}
         rate = self.rate(column=2)
@@ -444,7 +454,8 @@ class Runner:
         return {"n_elements": self.n_elements, "element_steps_per_s": rate,
                 "elements_per_rank": [int(n) for n in per_rank],
                 "element_weights": {self.sim.bodies.names[b]: float(weights[b])
-                                    for b in self.sim.elements.body_indices}}
+                                    for b in self.sim.elements.body_indices},
+                "element_step_limit": self.step_limit.summary()}
 
     def window_summary(self):
         """Each refined window's final box (mm), ratio and particle count."""
