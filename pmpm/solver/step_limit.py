@@ -33,9 +33,9 @@ class ElementStepLimit:
         """``element_step_limit`` of summary.json ({} before any FEM force pass):
         ``stable_step`` the element's stable step at cfl 1 (0: inverted), ``run_dt``
         the run's step at that history row (time.cfl times the shortest stable step of
-        elements and particles, or time.dt; before any landing on a frame time), ``time`` and ``step`` of the row,
-        ``body``, ``element`` (its number within the body, as the fault messages give
-        it) and its ``centroid``."""
+        elements and particles, or time.dt; before any landing on a frame time),
+        ``time`` and ``step`` of the row, ``body``, ``element`` (its number within the
+        body, as the fault messages give it) and its ``centroid``."""
         if self.worst is None:
             return {}
         return {k: v for k, v in self.worst.items() if k != "rate"}
