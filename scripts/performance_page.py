@@ -186,7 +186,7 @@ README_CASES = {"taylor_0.38_gimp": "Taylor bar, 0.38 mm, gimp (the default)",
                 "taylor_0.38_bspline": "Taylor bar, 0.38 mm, bspline",
                 "ball_contact": "steel ball on a plate, contact method 2, linear",
                 "block_1M": "Johnson-Cook block, linear",
-                "fem_block_216k": "the block as 216,000 FEM hexahedra (element-steps)",
+                "fem_block_216k": "the block as FEM hexahedra of 1 mm (element-steps)",
                 "perforation_fem_4mm": "seed 004 perforation, 4 mm, elements turning into "
                                        "particles (point-steps)"}
 
@@ -291,6 +291,20 @@ def write_ceiling(ceiling_path, page_path):
     print("wrote", page_path)
 
 
+def kept_ceiling(page_path):
+    """The ceiling's section of the page already at ``page_path`` (lines, markers
+    included, after an empty line), or none: regenerating the bench's part without a
+    ceiling.json must not drop the measured ceiling."""
+    if not os.path.exists(page_path):
+        return []
+    with open(page_path, encoding="utf-8") as f:
+        text = f.read()
+    if CEILING_START not in text or CEILING_END not in text:
+        return []
+    start, end = text.index(CEILING_START), text.index(CEILING_END) + len(CEILING_END)
+    return [""] + text[start:end].split("\n")
+
+
 def _source(path):
     inside = os.path.abspath(path).startswith(ROOT + os.sep)
     return os.path.relpath(path, ROOT) if inside else os.path.abspath(path)
@@ -304,6 +318,8 @@ def write_page(json_path, page_path):
     if os.path.exists(ceiling_path):
         with open(ceiling_path, encoding="utf-8") as f:
             lines += ceiling_section(json.load(f), _source(ceiling_path))
+    else:                       # keep the page's own (a fresh checkout has no results/)
+        lines += kept_ceiling(page_path)
     write_lines(page_path, lines)
     readme = os.path.join(ROOT, "README.md")
     if os.path.abspath(page_path) == os.path.abspath(DEFAULT_PAGE):

@@ -37,3 +37,20 @@ def test_the_ceiling_replaces_its_own_section_and_nothing_else(tmp_path):
     assert second.count(performance_page.CEILING_START) == 1
     assert "| stress | 40.0 |" in second and "| stress | 60.0 |" not in second
     assert second.startswith("# Performance\n\nbefore\n") and second.endswith("after\n")
+
+
+def test_a_page_rewritten_without_a_ceiling_json_keeps_its_ceiling(tmp_path):
+    """bench.py --page on a checkout whose results/ holds no ceiling.json (a fresh
+    clone) rewrote the page without the measured ceiling; the page's own section is now
+    kept as it was."""
+    ceiling, page = tmp_path / "ceiling.json", tmp_path / "performance.md"
+    ceiling.write_text(json.dumps(CEILING))
+    page.write_text("# Performance\n\nbefore\n")
+    performance_page.write_ceiling(str(ceiling), str(page))
+    kept = performance_page.kept_ceiling(str(page))
+    assert kept[0] == "" and kept[1] == performance_page.CEILING_START
+    assert kept[-1] == performance_page.CEILING_END
+    assert any(line.startswith("| stress | ") for line in kept)
+    assert performance_page.kept_ceiling(str(tmp_path / "none.md")) == []
+    page.write_text("# Performance\n")
+    assert performance_page.kept_ceiling(str(page)) == []
