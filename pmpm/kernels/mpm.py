@@ -571,10 +571,13 @@ def owners_and_spans(x, level, origin, inv_h, n_cells, axis, bounds, rank, ratio
     Notes
     -----
     The end of the step read x three times before (owners 4.9, spans 3.3 and the moving
-    count, NumPy on ``owner``, 3.0 ns a particle-step on the bar)."""
+    count, NumPy on ``owner``, 3.0 ns a particle-step on the bar). Level 0's cells are
+    the owners' (ratio 1, the same 1 / h): its span takes them, not three more floors
+    (3.3 -> 2.3 ns a particle on random points in the bar's box)."""
     outside = 0
     moving = 0
     n_ranks = bounds.shape[0] - 1
+    same = ratios[0] == 1 and inv_hs[0] == inv_h    # level 0's cells are the owners'
     for lv in range(span.shape[0] // 6):
         ih, top = inv_hs[lv], n_cells * ratios[lv] - 1.0
         lo0 = lo1 = lo2 = hi0 = hi1 = hi2 = -(2.0 ** 62)
@@ -594,6 +597,10 @@ def owners_and_spans(x, level, origin, inv_h, n_cells, axis, bounds, rank, ratio
                     r += 1
                 owner[p] = r
                 moving += r != rank
+                if same and level[p] == 0:   # inside, so below top: the same span
+                    lo0, lo1, lo2 = max(lo0, -c0), max(lo1, -c1), max(lo2, -c2)
+                    hi0, hi1, hi2 = max(hi0, c0), max(hi1, c1), max(hi2, c2)
+                    continue
             if level[p] != lv or owner[p] < 0:
                 continue
             c0 = min(np.floor((x[p, 0] - origin[0]) * ih), top[0])
