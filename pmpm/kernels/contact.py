@@ -272,8 +272,10 @@ def balance_start(slots, body_rigid, m_tiny, block):
     normal velocity set to the centre of mass's; less those the release rule undid,
     :func:`release_open_gaps`), balanced as :func:`_balance_corrections` balances the
     end's: where three bodies or more meet at a slot, their net change of momentum, per
-    unit of the node's mass, is taken off every body there. Two bodies' corrections
-    cancel (and the release rule's gap is the same for both), and a rigid body imposes
+    unit of the node's mass, is taken off every body there (the same shift for all: their
+    relative velocities, and so the removed approach, are kept). Two bodies' corrections
+    cancel (and the release rule's gap is the same for both: the volume gap is symmetric
+    in the pair, the extents' gap is taken along opposite normals), and a rigid body imposes
     its velocity: those slots are left as they are. Writes ``slots.cvel``."""
     cnodal, slot_nodes, cvel, _, _, _ = slots
     net, own = np.empty(3), np.empty(3)
