@@ -4,10 +4,12 @@ message, and every sharer adds the partials in rank order, so that the copies of
 shared node stay bitwise equal and 1 rank agrees with N to round-off."""
 import numpy as np
 
+from ..kernels.exact_sum import add_rows_in_order
 from .sparse import exchange_known
 from .world import payload_bytes
 
 TAG = 79
+ORDER_TAG = 82
 
 
 def sum_shared_rows(world, values, partners):
@@ -42,7 +44,9 @@ def sum_shared_rows_in_element_order(world, values, partners, hexes, element_id,
     """Like :func:`sum_shared_rows`, to the bit of one rank: a shared node's total is
     the sum, from 0, of the contributions of every sharer's elements to it in global
     element id order, which is the order one rank adds them in (its elements are held
-    in id order, ``element_forces`` adds them in array order).
+    in id order, ``element_forces`` adds them in array order). One call: the plan of
+    :class:`ElementOrderSums` made and used once (a kind keeps its plan while its mesh
+    stays).
 
     Parameters
     ----------
@@ -54,32 +58,74 @@ def sum_shared_rows_in_element_order(world, values, partners, hexes, element_id,
     """
     if not partners:
         return values
-    shared = np.zeros(len(values), bool)
-    for _, idx in partners:
-        shared[idx] = True
-    e, k = np.nonzero(shared[hexes])
-    nodes, ids, parts = hexes[e, k], element_id[e], contributions[e, k]
-    received = swap_arrays(world, {rank: _on_partner_nodes(idx, nodes, ids, parts,
-                                                           len(values))
-                                   for rank, idx in partners})
-    for rank, idx in partners:
-        position, their_ids, their_parts = received[rank]
-        nodes = np.concatenate([nodes, idx[position]])
-        ids, parts = np.concatenate([ids, their_ids]), np.concatenate([parts, their_parts])
-    order = np.lexsort((ids, nodes))
-    total = values.copy()
-    total[shared] = 0.0
-    np.add.at(total, nodes[order], parts[order])        # in order, one row at a time
-    return total
+    return ElementOrderSums(world, partners, hexes, element_id, len(values)).total(
+        values, contributions)
 
 
-def _on_partner_nodes(idx, nodes, ids, parts, n_nodes):
-    """(position in the partner's shared list, element id, contribution) of the rows on
+class ElementOrderSums:
+    """:func:`sum_shared_rows_in_element_order` for a mesh that stays: what depends on
+    the mesh alone (which element corners sit on shared nodes, where each lands on the
+    partners', and the order of all of them by node and element id) is found once, with
+    one exchange of ids (collective over the partners); each sum then sends only the
+    contributions, as raw rows in that order. Build it again, on every rank at once,
+    whenever the elements or the partners change.
+
+    In the 2 mm perforation on 2 ranks the per-call form took 1.2 s of a 25 s run
+    (1045 calls): a node mask, a lexsort and packed messages each step."""
+
+    def __init__(self, world, partners, hexes, element_id, n_nodes):
+        self.world, self.partners = world, partners
+        shared = np.zeros(n_nodes, bool)
+        for _, idx in partners:
+            shared[idx] = True
+        self.shared = np.flatnonzero(shared)
+        e, k = np.nonzero(shared[hexes])
+        self.corners = e * hexes.shape[1] + k            # rows of contributions (n*8, k)
+        nodes, ids = hexes[e, k], element_id[e]
+        self.sends, packages = [], {}
+        for rank, idx in partners:
+            position, on = _on_partner_nodes(idx, nodes, n_nodes)
+            self.sends.append(on)
+            packages[rank] = (position, ids[on])
+        received = swap_arrays(world, packages)
+        all_nodes, all_ids, self.counts = [nodes], [ids], []
+        for rank, idx in partners:
+            position, their_ids = received[rank]
+            all_nodes.append(idx[position])
+            all_ids.append(their_ids)
+            self.counts.append(len(position))
+        all_nodes, all_ids = np.concatenate(all_nodes), np.concatenate(all_ids)
+        self.order = np.lexsort((all_ids, all_nodes))
+        self.nodes = all_nodes[self.order]
+
+    def total(self, values, contributions):
+        """The totals of ``values`` (n, k), this rank's sums, with each shared node's
+        replaced by the sum of every sharer's ``contributions`` (n_elements, 8, k) in
+        (node, element id) order."""
+        width = values.shape[1]
+        mine = contributions.reshape(-1, width)[self.corners]
+        incoming = [np.empty((n, width)) for n in self.counts]
+        outgoing = [np.ascontiguousarray(mine[on]) for on in self.sends]
+        requests = []
+        for (rank, _), out, into in zip(self.partners, outgoing, incoming):
+            requests.append(self.world.raw.Irecv(into, source=rank, tag=ORDER_TAG))
+            requests.append(self.world.raw.Isend(out, dest=rank, tag=ORDER_TAG))
+            self.world.traffic.note("neighbour", out.nbytes)
+        for request in requests:
+            request.Wait()
+        total = values.copy()
+        total[self.shared] = 0.0
+        add_rows_in_order(total, self.nodes, np.concatenate([mine] + incoming), self.order)
+        return total
+
+
+def _on_partner_nodes(idx, nodes, n_nodes):
+    """(position in the partner's shared list, which rows) of the rows ``nodes`` on
     the nodes ``idx`` shared with one partner."""
     position = np.full(n_nodes, -1, np.int64)
     position[idx] = np.arange(len(idx))
     on = position[nodes] >= 0
-    return position[nodes[on]], ids[on], parts[on]
+    return position[nodes[on]], on
 
 
 def swap_arrays(world, packages):

@@ -141,6 +141,18 @@ def add_rows(acc, first, rows):
             add(acc, first + j, rows[k, j])
 
 
+@njit(cache=True)
+def add_rows_in_order(total, nodes, parts, order):
+    """``total[nodes[j]] += parts[order[j]]`` for j = 0, 1, ... in turn: plain double
+    sums in a fixed order (the element-order sums over shared FE nodes,
+    pmpm.comm.shared_nodes.ElementOrderSums), as ``np.add.at`` adds, at a tenth of its
+    cost."""
+    for j in range(nodes.shape[0]):
+        n, r = nodes[j], order[j]
+        for i in range(total.shape[1]):
+            total[n, i] += parts[r, i]
+
+
 def put2(out, i, j, x):
     """``out[i, j] += x`` for a float array (2-D), exactly for an accumulator of that
     shape (3-D, the bins last): a kernel that takes either sums plainly or exactly

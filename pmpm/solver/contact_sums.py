@@ -50,11 +50,13 @@ def sums_at_home(world, gid, pid, rows, home):
     return ids[order], total[order]
 
 
-def totals_at_holders(world, gid, pid, rows, holders, node_id):
-    """(len(node_id),) + rows.shape[1:]: per local node (``node_id``: this rank's node
-    ids, ascending) the sum of the rows of every rank addressed to it. Each row goes to
-    every rank of its node's ``holders`` (ranks, padded with -1) and is summed there in
-    (node id, pair key ``pid``) order (collective)."""
+def sums_at_holders(world, gid, pid, rows, holders, node_id):
+    """(nodes, sums): the local nodes (``node_id``: this rank's node ids, ascending)
+    that rows of any rank are addressed to, ascending, and per node the sum of those
+    rows. Each row goes to every rank of its node's ``holders`` (ranks, padded with -1)
+    and is summed there in (node id, pair key ``pid``) order (collective). Only the nodes
+    that take rows: a pass over all nodes with (n, 3) views cost 2.6 of the node
+    contact's 3.2 s in the 2 mm perforation."""
     parts = [(gid, pid, rows)] if world.size == 1 else exchange_arrays(
         world, [(gid[w], pid[w], rows[w]) for w in
                 ((holders == r).any(axis=1) for r in range(world.size))])
@@ -62,10 +64,10 @@ def totals_at_holders(world, gid, pid, rows, holders, node_id):
     pid = np.concatenate([part[1] for part in parts])
     rows = np.concatenate([part[2] for part in parts])
     order = np.lexsort((pid, gid))
-    local = np.searchsorted(node_id, gid[order])
-    total = np.zeros((len(node_id),) + rows.shape[1:])
-    np.add.at(total, local, rows[order])
-    return total
+    nodes, at = np.unique(np.searchsorted(node_id, gid[order]), return_inverse=True)
+    sums = np.zeros((len(nodes),) + rows.shape[1:])
+    np.add.at(sums, at.ravel(), rows[order])
+    return nodes, sums
 
 
 def node_holders(rank, partners, n_nodes):

@@ -71,7 +71,7 @@ from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
 from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
-from .contact_sums import pad_holders, sums_at_home, sums_in_order, totals_at_holders
+from .contact_sums import pad_holders, sums_at_home, sums_in_order, sums_at_holders
 from .couplings import Coupling, kept_copy
 from .errors import SetupError
 from .fem_grid import grid_coupled_bodies
@@ -337,22 +337,24 @@ class NodeContact(Coupling):
         holders = np.concatenate([
             pad_holders(self.holders[pair_n], width),
             pad_holders(segs["holders"][pair_s], width).reshape(-1, width)])
-        total = totals_at_holders(self.world, gid, key, rows, holders, fem.node_id)
-        total = total.reshape(len(fem.x), 2, 3)
-        total[fem.fixed[:, None, :].repeat(2, axis=1)] = 0.0
-        total[fem.rigid_nodes()] = 0.0
+        nodes, total = sums_at_holders(self.world, gid, key, rows, holders, fem.node_id)
+        total = total.reshape(len(nodes), 2, 3)
+        total[fem.fixed[nodes, None, :].repeat(2, axis=1)] = 0.0
+        total[fem.rigid_nodes()[nodes]] = 0.0
         before = fem.v.copy()
-        fem.v += total[:, 0] / fem.mass[:, None]
+        fem.v[nodes] += total[:, 0] / fem.mass[nodes, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
-        fem.x += dt * (fem.v - before) + total[:, 1] / fem.mass[:, None]
+        move = dt * (fem.v - before)
+        move[nodes] += total[:, 1] / fem.mass[nodes, None]
+        fem.x += move
 
 
 def box_of(lo, hi, grow):
     """(lo, hi) of the rows of ``lo`` and ``hi`` (n, 3), grown by ``grow``; an empty box
     (lo = inf, hi = -inf: it meets nothing) where there is no row."""
-    if not len(lo):
-        return np.full(3, np.inf), np.full(3, -np.inf)
-    return lo.min(axis=0) - grow, hi.max(axis=0) + grow
+    box_lo, box_hi = np.empty(3), np.empty(3)
+    ksc.box_bounds(lo, hi, box_lo, box_hi)          # numpy's min(axis=0): 0.2 ms a call
+    return box_lo - grow, box_hi + grow
 
 
 def meet(a, b):

@@ -104,8 +104,8 @@ from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
 from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
-from .contact_sums import (node_holders, pad_holders, sums_at_home, sums_in_order,
-                           totals_at_holders)
+from .contact_sums import (node_holders, pad_holders, sums_at_holders, sums_at_home,
+                           sums_in_order)
 from .couplings import Coupling, kept_copy
 
 #: the share of a particle centre's depth inside a face that its pair closes in a step,
@@ -492,11 +492,11 @@ class SurfaceContact(Coupling):
         pid = np.repeat(p.id[pair_p], 4)
         rows = (phi[:, :, None] * impulses[:, None, :]).reshape(-1, 3)
         holders = segs["holders"][pair_s].reshape(len(gid), segs["holders"].shape[2])
-        total = totals_at_holders(self.world, gid, pid, rows, holders, fem.node_id)
-        total[fem.fixed] = 0.0
-        total[fem.rigid_nodes()] = 0.0
+        nodes, total = sums_at_holders(self.world, gid, pid, rows, holders, fem.node_id)
+        total[fem.fixed[nodes]] = 0.0
+        total[fem.rigid_nodes()[nodes]] = 0.0
         before = fem.v.copy()
-        fem.v += total / fem.mass[:, None]
+        fem.v[nodes] += total / fem.mass[nodes, None]
         fem.hold_at_faces(None)            # a node on a fixed or slip grid face stays held
         fem.x += dt * (fem.v - before)
 
