@@ -75,8 +75,8 @@ from .contact_sums import pad_holders, sums_at_home, sums_in_order, sums_at_hold
 from .couplings import Coupling, kept_copy
 from .errors import SetupError
 from .fem_grid import grid_coupled_bodies
-from .surface_contact import (MAX_BUCKETS, gathered_segments, mesh_faces,
-                              joined_segments, segment_boxes, shapes)
+from .surface_contact import (MAX_BUCKETS, mesh_faces,
+                              SegmentRows, segment_boxes, shapes)
 
 #: the share of a depth left after the impulses that a pair closes in a step, by moving
 #: the positions (not the velocities: no energy, no momentum)
@@ -147,6 +147,7 @@ class NodeContact(Coupling):
         self.last_pairs, self.largest_penetration, self.deepest = 0, 0.0, 0.0
         self.force_log = None          # pmpm.solver.forces.ForceLog, set by the simulation
         self.start_x = None
+        self.segment_rows = SegmentRows()
         self.refresh_faces()
 
     @property
@@ -197,10 +198,10 @@ class NodeContact(Coupling):
 
     def own_segments(self):
         fem = self.elements
-        x, x0, v = gathered_segments(fem.x, self.start_x, fem.v, self.face_nodes)
-        return {"gid": self.face_gid, "x": x, "x0": x0, "v": v,
-                "inv_m": self.face_inv_m, "body": self.face_body, "key": self.face_key,
-                "holders": self.face_holders, "depth": self.face_depth}
+        fixed = {"gid": self.face_gid, "inv_m": self.face_inv_m, "body": self.face_body,
+                 "key": self.face_key, "holders": self.face_holders,
+                 "depth": self.face_depth}
+        return self.segment_rows.own(fixed, fem.x, self.start_x, fem.v, self.face_nodes)
 
     def with_halo(self, own):
         """Own segments plus copies of the other ranks' segments whose box, grown by
@@ -224,8 +225,8 @@ class NodeContact(Coupling):
             packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
         to = [r for r in range(len(boxes)) if r != me and meet(boxes[me][1], boxes[r][0])]
         by = [r for r in range(len(boxes)) if r != me and meet(boxes[r][1], boxes[me][0])]
-        return joined_segments([own] + exchange_known(self.world, packages, to, by),
-                               SEGMENT_FIELDS)
+        received = exchange_known(self.world, packages, to, by)
+        return self.segment_rows.joined(received[:me] + received[me + 1:])
 
     # -- the step ---------------------------------------------------------------------
     def after_scatter(self, grids, kinds):
