@@ -8,9 +8,10 @@ identical work, parallel efficiency, and peak memory per particle, for
 - the steel ball on the 1 mm plate at 0.66 mm with contact method 2 and without (0.03 ms),
 - the Johnson-Cook block as 216,000 FEM hexahedra (runs/fem_block.yaml; element-steps,
   reported in the particle-steps column),
-- the seed 004 perforation, coarse (runs/ogive_plate_fem.yaml: 4 mm plate elements and
-  cells, the 5.7 mm rod, the first 50 us, elements converting into particles): point-steps
-  (element-steps plus particle-steps) in that column, each also on its own in bench.json.
+- the seed 004 perforation, coarse (runs/ogive_plate_fem.yaml: 4 mm and 2 mm plate
+  elements and cells, the 5.7 mm rod, the first 50 us, elements converting into
+  particles): point-steps (element-steps plus particle-steps) in that column, each also
+  on its own in bench.json.
 
 Writes results/bench/bench.{json,md}; bench.json also records the commit, date, command
 and machine. The machine this was written for has 2 cores: more ranks than cores need
@@ -61,6 +62,11 @@ CASES = {
     # seed 004 Sec. 4.2 coarse (issue 24 Speed): elements and the particles they become
     "perforation_fem_4mm": ("runs/ogive_plate_fem.yaml", [
         "params.cell=4", "params.plate_element=4", "params.rod_element=5.7",
+        "time.end=0.05", "output.frames=1"]),
+    # the same at 2 mm (39,381 elements): the 4 mm case's 5,544 elements leave each step
+    # about 3 ms, mostly per-step Python and messages, too little work to divide
+    "perforation_fem_2mm": ("runs/ogive_plate_fem.yaml", [
+        "params.cell=2", "params.plate_element=2", "params.rod_element=5.7",
         "time.end=0.05", "output.frames=1"]),
     # contact overhead (issue 3): the same particles with and without method 2
     "ball_contact": ("runs/steel_ball_plate.yaml", ["params.method=2", "time.end=0.03",

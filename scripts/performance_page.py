@@ -44,6 +44,15 @@ DESCRIPTIONS = {
                     "first 0.03 ms (`runs/steel_ball_plate.yaml`).",
     "ball_no_contact": "The same ball and plate without contact (standard MPM), the "
                        "baseline of the contact overhead.",
+    "perforation_fem_4mm": "Seed 004's oblique perforation, coarse: 4 mm plate elements "
+                           "and cells, the 5.7 mm rod, the first 50 us, elements turning "
+                           "into particles (`runs/ogive_plate_fem.yaml`); point-steps "
+                           "(element- plus particle-steps) in the rate column. 5,544 "
+                           "elements leave each step about 3 ms, mostly per-step Python "
+                           "and messages: too little work to divide over ranks.",
+    "perforation_fem_2mm": "The same perforation at 2 mm plate elements and cells "
+                           "(39,381 elements): the case the 2-rank efficiency of issue 24 "
+                           "is read from.",
 }
 # bench.py --small runs the block at params.edge=25: 125,000 particles, not 1,000,000
 SMALL_DESCRIPTIONS = {
@@ -188,7 +197,8 @@ README_CASES = {"taylor_0.38_gimp": "Taylor bar, 0.38 mm, gimp (the default)",
                 "block_1M": "Johnson-Cook block, linear",
                 "fem_block_216k": "the block as FEM hexahedra of 1 mm (element-steps)",
                 "perforation_fem_4mm": "seed 004 perforation, 4 mm, elements turning into "
-                                       "particles (point-steps)"}
+                                       "particles (point-steps)",
+                "perforation_fem_2mm": "seed 004 perforation, 2 mm (point-steps)"}
 
 
 def readme_table(data):

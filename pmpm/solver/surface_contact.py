@@ -206,8 +206,10 @@ class SurfaceContact(Coupling):
         plane[0], plane[-1] = -np.inf, np.inf
         pad = self.reach + 2.0 * h   # a cell for the migration that has not happened yet,
         # one for the depth a centre may reach in a step (points move less than a cell)
-        x = own["x"][:, :, axis]
-        lo, hi = x.min(axis=1) - pad, x.max(axis=1) + pad
+        n = len(own["x"])
+        lo, hi = np.empty((n, 3)), np.empty((n, 3))
+        knc.segment_boxes(own["x"], np.full(n, pad), lo, hi)   # numpy's min(axis=1) is slow
+        lo, hi = lo[:, axis], hi[:, axis]
         packages = []
         for r in range(self.world.size):
             going = (hi >= plane[r]) & (lo <= plane[r + 1]) & (r != self.world.rank)
