@@ -102,7 +102,8 @@ def run_locked(world, args, out, config, case_text, case):
         case_text = check_restart_case(world, checkpoint, case, case_text)
     from .kernels.shape import SHAPE_CODES
     from .kernels.warmup import kernels_of, warm_up
-    from .solver.memory import current_rss_bytes, return_freed_memory_to_os
+    from .solver.memory import (current_rss_bytes, return_freed_memory_to_os,
+                                threshold_for_fe_nodes)
     from .solver.progress import SlowNotice
     from .solver.run import Runner
     quiet_numba_pedantry()
@@ -119,6 +120,8 @@ def run_locked(world, args, out, config, case_text, case):
     sim, restart, size = setup()
     del setup      # its closure holds the whole meshes and every body's points (or the
     #                checkpoint's FEM groups, whole): no rank keeps them for the run
+    if sim.elements:
+        return_freed_memory_to_os(threshold_for_fe_nodes(len(sim.elements.x)))
     if size and not args.quiet:
         print(size, flush=True)
     runner = _set_up(lambda: Runner(sim, out, case_text, progress=not args.quiet,
