@@ -299,3 +299,21 @@ def test_lane_blocks_give_the_scalar_paths_answers_to_the_bit(kind):
     assert runs[0][-1].max() > 0.0 and runs[0][4 * 4 + 3].max() > 0.0   # energy, eps_p
     for lanes_path, scalar_path in zip(*runs):
         assert np.array_equal(lanes_path, scalar_path)
+
+
+def test_the_volumes_from_the_faces_are_the_mean_gradients_to_round_off():
+    """FemBodies.volumes (the conversion check's, every step) takes each element's volume
+    from its faces: exact for the trilinear hexahedron, as the mean gradient's."""
+    from pmpm.fem.hexahedron import boundary_volumes, element_volumes
+    cube = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                     [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], np.float64)
+    rng = np.random.default_rng(7)
+    m = 2000
+    x = (cube[None] + 0.3 * rng.standard_normal((m, 8, 3))).reshape(-1, 3)
+    x[:3 * 8] *= -1.0                           # three elements turned inside out
+    hexes = np.arange(8 * m, dtype=np.int64).reshape(m, 8)
+    by_gradient, by_faces = np.empty(m), np.empty(m)
+    element_volumes(x, hexes, by_gradient)
+    boundary_volumes(x, hexes, by_faces)
+    assert (by_gradient[:3] < 0).all()
+    np.testing.assert_allclose(by_faces, by_gradient, rtol=0, atol=1e-14)

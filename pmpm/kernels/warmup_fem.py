@@ -13,7 +13,7 @@ The problems are empty or one element: the calls only need valid types."""
 import numpy as np
 
 from ..fem import elements as fe
-from ..fem.hexahedron import element_volumes
+from ..fem.hexahedron import boundary_volumes, element_volumes
 from ..fem import nodes as fn
 from ..fem.stability import mesh_rate
 from ..materials import layout
@@ -35,6 +35,7 @@ def warm_up_elements(mat, bodies, exact=False):
     hexes, body = np.arange(8, dtype=np.int64)[None, :], np.zeros(1, np.int32)
     vol, mass = np.empty(1), np.empty(8)
     element_volumes(x, hexes, vol)
+    boundary_volumes(x, hexes, np.empty(1))  # the conversion check's (FemBodies.volumes)
     rho0 = np.ascontiguousarray(bodies.params[:, layout.RHO0])
     fe.lumped_masses(hexes, vol, bodies.params[body, layout.RHO0], mass)
     kind, coefficient = np.zeros(1, np.int64), np.full(1, 0.1)

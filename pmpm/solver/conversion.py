@@ -72,6 +72,8 @@ CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
                     [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], np.float64)
 #: ids kept for each element's particles: enough for the most a case may ask
 ID_STRIDE = MAX_CONVERT_DIVISIONS ** 3
+#: how far apart two computations of one volume ratio may be (see Conversion.chosen)
+ROUND_OFF = 1e-12
 
 
 class ConversionRules:
@@ -201,10 +203,13 @@ class Conversion(Transfer):
         if not fem.n_elements:
             return np.zeros(0, bool)
         b = fem.body
+        # the current volume from the faces, the reference from the mean gradient at
+        # set-up (the element masses carry its bits): the same to round-off, so a ratio
+        # within ROUND_OFF of its bound is at it (an element at rest converts at 1)
         ratio = fem.volumes() / fem.vol0
         chosen = (self.rules.divisions[b] > 0) & (
             (fem.state.eps_p >= self.rules.eps_p[b])
-            | (ratio <= self.rules.volume_ratio[b]) | (ratio <= 0.0))
+            | (ratio <= self.rules.volume_ratio[b] + ROUND_OFF) | (ratio <= 0.0))
         if self.rules.step_ratio.any():
             chosen |= self.on_the_step(b)
         return chosen
