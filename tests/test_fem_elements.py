@@ -291,7 +291,7 @@ def test_lane_blocks_give_the_scalar_paths_answers_to_the_bit(kind):
         for _ in range(4):
             force, rates, parts = np.zeros_like(mesh.x), np.zeros(m), np.zeros((m, 8, 3))
             rate, bad, why = element_forces(mesh, state, bodies, hg, 2e-5, force, rates,
-                                            parts)
+                                            parts, np.arange(m))
             assert bad == -1
             outputs += [np.array([rate]), force, rates, parts]
             mesh.x[:] += 2e-5 * mesh.v

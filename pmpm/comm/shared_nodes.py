@@ -39,39 +39,20 @@ def sum_shared_rows(world, values, partners):
     return total
 
 
-def sum_shared_rows_in_element_order(world, values, partners, hexes, element_id,
-                                     contributions):
+class ElementOrderSums:
     """Like :func:`sum_shared_rows`, to the bit of one rank: a shared node's total is
     the sum, from 0, of the contributions of every sharer's elements to it in global
     element id order, which is the order one rank adds them in (its elements are held
-    in id order, ``element_forces`` adds them in array order). One call: the plan of
-    :class:`ElementOrderSums` made and used once (a kind keeps its plan while its mesh
-    stays).
+    in id order, ``element_forces`` adds them in array order).
 
-    Parameters
-    ----------
-    values : (n, k) this rank's sums on its nodes (those on shared nodes are replaced)
-    partners : as for :func:`sum_shared_rows`
-    hexes : (n_elements, 8) local node of each element corner
-    element_id : (n_elements,) global ids
-    contributions : (n_elements, 8, k) each element's part of ``values`` at each corner
-    """
-    if not partners:
-        return values
-    return ElementOrderSums(world, partners, hexes, element_id, len(values)).total(
-        values, contributions)
-
-
-class ElementOrderSums:
-    """:func:`sum_shared_rows_in_element_order` for a mesh that stays: what depends on
-    the mesh alone (which element corners sit on shared nodes, where each lands on the
-    partners', and the order of all of them by node and element id) is found once, with
-    one exchange of ids (collective over the partners); each sum then sends only the
+    What depends on the mesh alone (which elements have a corner on a shared node:
+    ``row_of``, their rows of the contributions; where each corner lands on the
+    partners'; the order of all of them by node and element id) is found once, with one
+    exchange of ids (collective over the partners); each sum then sends only the
     contributions, as raw rows in that order. Build it again, on every rank at once,
-    whenever the elements or the partners change.
-
-    In the 2 mm perforation on 2 ranks the per-call form took 1.2 s of a 25 s run
-    (1045 calls): a node mask, a lexsort and packed messages each step."""
+    whenever the elements or the partners change. (Made and used at every call, this
+    took 1.2 s of a 25 s run of the 2 mm perforation on 2 ranks: a node mask, a lexsort
+    and packed messages each step.)"""
 
     def __init__(self, world, partners, hexes, element_id, n_nodes):
         self.world, self.partners = world, partners
@@ -80,7 +61,13 @@ class ElementOrderSums:
             shared[idx] = True
         self.shared = np.flatnonzero(shared)
         e, k = np.nonzero(shared[hexes])
-        self.corners = e * hexes.shape[1] + k            # rows of contributions (n*8, k)
+        # a row of contributions for each element on a shared node only (at the seed's
+        # 1 mm, rows for every element were 30 MB a rank written and zeroed each step)
+        on_shared = np.unique(e)
+        self.row_of = np.full(len(hexes), -1, np.int64)
+        self.row_of[on_shared] = np.arange(len(on_shared))
+        self.n_rows = len(on_shared)
+        self.corners = self.row_of[e] * hexes.shape[1] + k   # in contributions (rows*8, k)
         nodes, ids = hexes[e, k], element_id[e]
         self.sends, packages = [], {}
         for rank, idx in partners:
@@ -100,8 +87,8 @@ class ElementOrderSums:
 
     def total(self, values, contributions):
         """The totals of ``values`` (n, k), this rank's sums, with each shared node's
-        replaced by the sum of every sharer's ``contributions`` (n_elements, 8, k) in
-        (node, element id) order."""
+        replaced by the sum of every sharer's ``contributions`` (n_rows, 8, k: the
+        elements' of ``row_of``) in (node, element id) order."""
         width = values.shape[1]
         mine = contributions.reshape(-1, width)[self.corners]
         incoming = [np.empty((n, width)) for n in self.counts]

@@ -57,13 +57,16 @@ Hourglass = namedtuple("Hourglass", "kind coefficient resist energy")
 
 
 @njit(cache=True)
-def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contributions=None):
+def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contributions=None,
+                   contribution_row=None):
     """Stress update and internal plus hourglass forces of every element, added to
     ``force`` (n, 3); with ``rates`` (n_elements,) each element's own stable rate too
     (0 for a rigid body's or a failed update, inf for an inverted element:
     FemBodies.step_rates, which a transfer's rule may read); with ``contributions``
-    (n_elements, 8, 3), zeros, each element's nodal forces too (for sums over the
-    nodes ranks share in element order, pmpm.comm.shared_nodes).
+    (rows, 8, 3), zeros, and ``contribution_row`` (n_elements,) the row of each element
+    (-1: none), the nodal forces of the elements that have a row too (for sums over the
+    nodes ranks share in element order, pmpm.comm.shared_nodes: the elements on shared
+    nodes only).
 
     The elements go in blocks of pmpm.fem.lanes.LANES: a block of reduced elements of
     one deformable body, none inverted, runs lane by lane (SIMD, :mod:`pmpm.fem.lanes`),
@@ -103,8 +106,8 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contribu
             done, rate, bad, why = _block_forces(e0, blk, x, v, hexes, mat, codes[bb0],
                                                  params[bb0], hg_kind[bb0],
                                                  hg_coefficient[bb0], resist, hg_energy, dt,
-                                                 force, rates, contributions, Lg, rate, bad,
-                                                 why)
+                                                 force, rates, contributions,
+                                                 contribution_row, Lg, rate, bad, why)
             if done:
                 continue
         for e in range(e0, min(e0 + lanes.LANES, m)):      # element by element
@@ -164,9 +167,11 @@ def element_forces(mesh, mat, bodies, hourglass, dt, force, rates=None, contribu
                 for i in range(3):
                     force[n, i] += fe[k, i]
             if contributions is not None:
-                for k in range(8):
-                    for i in range(3):
-                        contributions[e, k, i] = fe[k, i]
+                r = contribution_row[e]
+                if r >= 0:
+                    for k in range(8):
+                        for i in range(3):
+                            contributions[r, k, i] = fe[k, i]
     return rate, bad, why
 
 
@@ -183,7 +188,8 @@ def _reduced_block(body, rigid, hg_kind, e0):
 
 @njit(cache=True, inline="always")
 def _block_forces(e0, blk, x, v, hexes, mat, code, prm, kind, coefficient, resist,
-                  energy, dt, force, rates, contributions, Lg, rate, bad, why):
+                  energy, dt, force, rates, contributions, contribution_row, Lg, rate, bad,
+                  why):
     """element_forces on the block of LANES reduced elements from e0 on, lane by lane;
     returns (done, rate, bad, why), done False (and nothing changed) where an element of
     the block is inverted: the block then goes element by element.
@@ -199,13 +205,13 @@ def _block_forces(e0, blk, x, v, hexes, mat, code, prm, kind, coefficient, resis
     if done:
         rate, bad, why = _block_update(e0, blk, hexes, mat, code, prm, kind, coefficient,
                                        resist, energy, dt, force, rates, contributions,
-                                       Lg, rate, bad, why)
+                                       contribution_row, Lg, rate, bad, why)
     return done, rate, bad, why
 
 
 @njit(cache=True, inline="always")
 def _block_update(e0, blk, hexes, mat, code, prm, kind, coefficient, resist, energy, dt,
-                  force, rates, contributions, Lg, rate, bad, why):
+                  force, rates, contributions, contribution_row, Lg, rate, bad, why):
     """:func:`_block_forces` once the block's mean gradients and volumes are in ``blk``
     and every volume is positive; returns (rate, bad, why)."""
     stress, F, rho, eps_p, e_int, temp, q, damage, w_p = mat
@@ -235,13 +241,14 @@ def _block_update(e0, blk, hexes, mat, code, prm, kind, coefficient, resist, ene
     for l in range(lanes.LANES):            # in element order, as element by element
         if blk.ok[l]:
             rate = _block_element_done(e0 + l, l, blk, kind == STIFFNESS, hexes, resist,
-                                       energy, force, rates, contributions, rate)
+                                       energy, force, rates, contributions,
+                                       contribution_row, rate)
     return rate, bad, why
 
 
 @njit(cache=True, inline="always")
 def _block_element_done(e, l, blk, stiffness, hexes, resist, energy, force, rates,
-                        contributions, rate):
+                        contributions, contribution_row, rate):
     """Lane l's element e of a block: its rate, stored hourglass forces and energy, and
     its forces added to the nodes; returns the largest rate so far."""
     own = blk.own[l]
@@ -257,9 +264,11 @@ def _block_element_done(e, l, blk, stiffness, hexes, resist, energy, force, rate
         for i in range(3):
             force[n, i] += blk.fe[(3 * k + i) * lanes.LANES + l]
     if contributions is not None:
-        for k in range(8):
-            for i in range(3):
-                contributions[e, k, i] = blk.fe[(3 * k + i) * lanes.LANES + l]
+        r = contribution_row[e]
+        if r >= 0:
+            for k in range(8):
+                for i in range(3):
+                    contributions[r, k, i] = blk.fe[(3 * k + i) * lanes.LANES + l]
     return rate
 
 

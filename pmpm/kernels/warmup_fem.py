@@ -44,7 +44,8 @@ def warm_up_elements(mat, bodies, exact=False):
     force = np.zeros((8, 3))
     for parts in (None, np.zeros((1, 8, 3))) if exact else (None,):   # grid.exact_sums
         fe.element_forces(fe.ElementMesh(x, v, hexes, body), mat, bodies, hourglass, 1e-3,
-                          force, np.zeros(1), parts)
+                          force, np.zeros(1), parts,
+                          None if parts is None else np.zeros(1, np.int64))
     if exact:                           # pmpm.comm.shared_nodes.ElementOrderSums
         exact_sum.add_rows_in_order(force, hexes[0], np.zeros((8, 3)), hexes[0])
     fe.external_forces(mass, np.zeros(3), np.full(8, -1, np.int32), np.zeros(1),
