@@ -13,6 +13,7 @@ The problems are empty or one element: the calls only need valid types."""
 import numpy as np
 
 from ..fem import elements as fe
+from ..fem.criteria import elements_to_convert
 from ..fem.hexahedron import boundary_volumes, element_volumes
 from ..fem import nodes as fn
 from ..fem.stability import mesh_rate
@@ -36,6 +37,10 @@ def warm_up_elements(mat, bodies, exact=False):
     vol, mass = np.empty(1), np.empty(8)
     element_volumes(x, hexes, vol)
     boundary_volumes(x, hexes, np.empty(1))  # the conversion check's (FemBodies.volumes)
+    nb, one = len(bodies.rigid), np.ones(1)
+    elements_to_convert(body, one, one, one, one, np.zeros(nb, np.int64), one.repeat(nb),
+                        one.repeat(nb), 0.0, one.repeat(nb), one.repeat(nb),
+                        np.empty(1, np.bool_))
     rho0 = np.ascontiguousarray(bodies.params[:, layout.RHO0])
     fe.lumped_masses(hexes, vol, bodies.params[body, layout.RHO0], mass)
     kind, coefficient = np.zeros(1, np.int64), np.full(1, 0.1)

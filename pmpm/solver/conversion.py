@@ -62,6 +62,7 @@ import numpy as np
 from ..case.config import converted_into
 
 from ..case.fem import MAX_CONVERT_DIVISIONS
+from ..fem.criteria import elements_to_convert
 from ..particles.store import COLUMNS, empty_column
 from .bodies import refinement
 from .fem_bodies import rates_at_rest
@@ -198,37 +199,35 @@ class Conversion(Transfer):
         return count
 
     def chosen(self):
-        """Which of this rank's elements convert now."""
+        """Which of this rank's elements convert now (pmpm.fem.criteria). The current
+        volumes come from the faces, the reference ones from the mean gradient at set-up
+        (the element masses carry their bits): the same to round-off, so a ratio within
+        ROUND_OFF of its bound is at it (an element at rest converts at 1)."""
         fem = self.elements
         if not fem.n_elements:
             return np.zeros(0, bool)
-        b = fem.body
-        # the current volume from the faces, the reference from the mean gradient at
-        # set-up (the element masses carry its bits): the same to round-off, so a ratio
-        # within ROUND_OFF of its bound is at it (an element at rest converts at 1)
-        ratio = fem.volumes() / fem.vol0
-        chosen = (self.rules.divisions[b] > 0) & (
-            (fem.state.eps_p >= self.rules.eps_p[b])
-            | (ratio <= self.rules.volume_ratio[b] + ROUND_OFF) | (ratio <= 0.0))
-        if self.rules.step_ratio.any():
-            chosen |= self.on_the_step(b)
-        return chosen
+        return self.choose(fem.body, fem.state.eps_p, fem.volumes(), fem.vol0,
+                           fem.step_rates(), ROUND_OFF)
 
-    def on_the_step(self, b):
-        """Which of this rank's elements (of bodies ``b``) have a step, as the last force
-        pass took it, at the step criterion's floor (:meth:`at_the_floor`)."""
-        return self.at_the_floor(b, self.elements.step_rates())
+    def choose(self, b, eps_p, volumes, vol0, rates, round_off):
+        """The criteria on elements of bodies ``b`` (pmpm.fem.criteria)."""
+        r = self.rules
+        out = np.empty(len(b), np.bool_)
+        elements_to_convert(np.ascontiguousarray(b), eps_p, volumes, vol0, rates,
+                            r.divisions, r.eps_p, r.volume_ratio, round_off,
+                            r.step_ratio, self.cell_rates, out)
+        return out
 
     def at_the_floor(self, b, rates):
         """Which elements, of bodies ``b`` with stable ``rates`` (1 / step), have a step
         at most ``step_ratio`` of their body's cell step: their rate at least the cell's
         rate over the ratio; none of a body that does not convert on the step or has no
-        wave speed (a rigid one). The one comparison of the criterion, for the run's
-        steps (:meth:`on_the_step`) and the warning at the start (at rest)."""
-        ratio, reference = self.rules.step_ratio[b], self.cell_rates[b]
-        limit = reference / np.maximum(ratio, 1e-300)
-        return (ratio > 0) & (self.rules.divisions[b] > 0) & (reference > 0) \
-            & (rates >= limit)
+        wave speed (a rigid one). The step criterion alone, for the warning at the start
+        (at rest): the other criteria cannot hold (a plastic strain of minus infinity, a
+        volume ratio of 1 against a bound of minus infinity)."""
+        ones = np.ones(len(b))
+        return self.choose(b, np.full(len(b), -np.inf), ones, ones,
+                           np.ascontiguousarray(rates, np.float64), -np.inf)
 
     def particles_of(self, converted):
         """The particle columns of the elements ``converted`` (local indices)."""
