@@ -463,14 +463,20 @@ def cell_keys(x, origin, inv_h, n_cells):
 def slab_cell_keys(x, origin, inv_h, n_cells, axis):
     """Flat coarse cell index of each particle with the slab ``axis`` slowest (the cell
     layer along it leads, so that sorting by it orders the particles layer by layer)."""
-    a, b = (1, 2) if axis == 0 else ((0, 2) if axis == 1 else (0, 1))
     keys = np.empty(x.shape[0], np.int64)
+    _slab_cell_keys_into(x, origin, inv_h, n_cells, axis, keys)
+    return keys
+
+
+@njit(cache=True, inline="always")
+def _slab_cell_keys_into(x, origin, inv_h, n_cells, axis, keys):
+    """:func:`slab_cell_keys` into ``keys``."""
+    a, b = (1, 2) if axis == 0 else ((0, 2) if axis == 1 else (0, 1))
     for p in range(x.shape[0]):
         i = np.int64(np.floor((x[p, axis] - origin[axis]) * inv_h))
         j = np.int64(np.floor((x[p, a] - origin[a]) * inv_h))
         k = np.int64(np.floor((x[p, b] - origin[b]) * inv_h))
         keys[p] = (i * n_cells[a] + j) * n_cells[b] + k
-    return keys
 
 
 @njit(cache=True)
@@ -483,9 +489,9 @@ def canonical_keys(x, ids, origin, inv_h, n_cells, axis, keys):
         span = max(span, ids[p] + 1)
     if float(n_cells[0]) * float(n_cells[1]) * float(n_cells[2]) * float(span) >= 2.0 ** 62:
         return False
-    cells = slab_cell_keys(x, origin, inv_h, n_cells, axis)
-    for p in range(ids.shape[0]):
-        keys[p] = cells[p] * span + ids[p]
+    _slab_cell_keys_into(x, origin, inv_h, n_cells, axis, keys)   # no temporary: it
+    for p in range(ids.shape[0]):               # was page-faulted in at every call
+        keys[p] = keys[p] * span + ids[p]
     return True
 
 

@@ -236,14 +236,15 @@ class ContactFields:
         """Nodes that points of two or more bodies reach, tied slaves left out (they
         follow their masters)."""
         block = state.block
-        mask = np.zeros(block.n_nodes, np.int64)
+        mask = self.work.empty("mask", block.n_nodes, 1, np.int64)[:, 0]  # kept: a fresh
+        mask.fill(0)        # array each step was page-faulted in (128 KiB mmap threshold)
         for kind in kinds:
             kind.mark_bodies(state, mask)
         or_shared_planes(self.world, block.shared_planes, block.as_planes(mask))
         mirror_masks(mask, state.mirror)
         for ties in state.slave_ties:
             tied.clear_slave_slots(ties, mask)
-        self.slot_of = np.empty(block.n_nodes, np.int64)
+        self.slot_of = self.work.empty("slot_of", block.n_nodes, 1, np.int64)[:, 0]
         self.slot_nodes = kc.number_contact_nodes(mask, self.slot_of)
         self.plane_slots = self._plane_slot_ranges(block)
         plane = block.strides[block.slab_axis]

@@ -48,6 +48,7 @@ class ParticleBodies(BodyKind):
         #: per grid level, the canonical order of the layer-ordered scatters and the id
         #: column it sorts (set by each mass scatter)
         self.orders = {}
+        self.kept_identity = np.zeros(0, np.int64)
         self.windows = []           # the refined windows (seen by assign_levels)
         #: with windows, each particle's cell layer along the slab axis at the last mass
         #: scatter (a followed body's centroid: layer_moments)
@@ -125,12 +126,35 @@ class ParticleBodies(BodyKind):
             fresh = np.flatnonzero(self.level_of == index)
             same = len(last) == len(fresh) and bool(np.all(self.level_of[last] == index))
         else:
-            fresh, same = np.arange(p.n, dtype=np.int64), len(last) == p.n
-        # the last step's order, if still over the same columns (migration replaces them)
-        order = last.copy() if of is p.id and same else fresh
+            fresh, same = None, len(last) == p.n
+        # the last step's order if still over the same columns (migration replaces them),
+        # else the particles as they are, copied into a kept buffer that is not the last
+        # order's (a fresh array each step was page-faulted in under the 128 KiB mmap
+        # threshold: 1,000 faults a step on the steel ball)
+        start = last if of is p.id and same else fresh
+        order = self.order_buffer(index, last, p.n if start is None else len(start))
+        if start is None:
+            order[:] = self.identity(p.n)
+        else:
+            order[:] = start
         if mpm.sort_nearly_sorted(keys, order, 8 * len(order)):
             return order
         return order[np.argsort(keys[order], kind="stable")]
+
+    def identity(self, n):
+        """0, 1, ..., n - 1 (a view of an array kept and grown)."""
+        if len(self.kept_identity) < n:
+            self.kept_identity = np.arange(max(n, 1024) * 5 // 4, dtype=np.int64)
+        return self.kept_identity[:n]
+
+    def order_buffer(self, index, last, n):
+        """Room for level ``index``'s next canonical order: one of two arrays kept for it,
+        the one that does not hold ``last``."""
+        for name in (f"order{index}a", f"order{index}b"):
+            rows = self.work.empty(name, n, 1, np.int64)[:, 0]
+            if not np.may_share_memory(rows, last):
+                return rows
+        raise AssertionError("both order buffers hold the last order")
 
     def mark_occupied(self, coarse, occupied):
         """The coarse nodes of cells holding coarse particles (the tied-interface search)."""
