@@ -4,7 +4,8 @@ import ctypes
 import os
 import resource
 
-M_MMAP_THRESHOLD = -3           # glibc's mallopt parameter
+M_MMAP_THRESHOLD = -3           # glibc's mallopt parameters
+M_TRIM_THRESHOLD = -1
 MMAP_THRESHOLD = 128 * 1024     # bytes: glibc's initial value
 LARGEST_THRESHOLD = 32 << 20    # bytes: the most glibc's own rule raises it to
 
@@ -20,7 +21,10 @@ def return_freed_memory_to_os(threshold=MMAP_THRESHOLD):
     against 437 with the threshold held). Returns True where the setting took (glibc)."""
     try:        # the process's own symbols, libc's among them: ctypes.util.find_library
         libc = ctypes.CDLL(None)    # would run ldconfig, 30 ms of every start (issue 25)
-        return bool(libc.mallopt(M_MMAP_THRESHOLD, int(threshold)))
+        done = bool(libc.mallopt(M_MMAP_THRESHOLD, int(threshold)))
+        if threshold > MMAP_THRESHOLD:      # and keep what is freed below it, as glibc's
+            done &= bool(libc.mallopt(M_TRIM_THRESHOLD, 2 * int(threshold)))  # own rule
+        return done
     except (OSError, AttributeError):
         return False
 
