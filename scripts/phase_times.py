@@ -13,16 +13,22 @@ Run under mpirun with the checkout to measure first:
 OUT.json: ``{"status", "ranks": [{name: [calls, cpu_s, wall_s]}, ...]}``. Compare runs on
 1 and P ranks with ``python scripts/phase_times.py --compare ONE.json P.json``: for each
 name, the CPU summed over the ranks against 1 rank's, and the busiest rank's.
+
+``--faults`` first (``scripts/phase_times.py --faults TREE OUT.json CASE ...``) counts
+each method's minor page faults (``getrusage``) in the place of its CPU seconds: the
+step's fresh arrays that the system zero-fills page by page (docs/performance-notes.md,
+"Memory: returning freed memory to the system").
 """
 import functools
 import inspect
 import json
+import resource
 import sys
 import time
 
 WRAPPED_MODULES = ("pmpm.solver", "pmpm.comm", "pmpm.grid", "pmpm.particles", "pmpm.io",
                    "pmpm.fem")
-STATE = {"in_step": False, "stack": []}
+STATE = {"in_step": False, "stack": [], "clock": time.process_time}
 TIMES = {}
 
 
@@ -33,13 +39,13 @@ def timed(name, function):
     def wrapper(*args, **kwargs):
         if not STATE["in_step"]:
             return function(*args, **kwargs)
-        frame = [time.process_time(), time.perf_counter(), 0.0, 0.0]
+        frame = [STATE["clock"](), time.perf_counter(), 0.0, 0.0]
         STATE["stack"].append(frame)
         try:
             return function(*args, **kwargs)
         finally:
             STATE["stack"].pop()
-            cpu = time.process_time() - frame[0]
+            cpu = STATE["clock"]() - frame[0]
             wall = time.perf_counter() - frame[1]
             entry = TIMES.setdefault(name, [0, 0.0, 0.0])
             entry[0] += 1
@@ -49,6 +55,11 @@ def timed(name, function):
                 STATE["stack"][-1][2] += cpu
                 STATE["stack"][-1][3] += wall
     return wrapper
+
+
+def minor_faults():
+    """Minor page faults of this process so far (the clock of ``--faults``)."""
+    return float(resource.getrusage(resource.RUSAGE_SELF).ru_minflt)
 
 
 def pmpm_modules(prefixes):
@@ -129,6 +140,9 @@ def main():
     if sys.argv[1] == "--compare":
         compare(sys.argv[2], sys.argv[3])
         return
+    if sys.argv[1] == "--faults":
+        STATE["clock"] = minor_faults
+        del sys.argv[1]
     from busy_time import run_instrumented
     run_instrumented(instrument, TIMES)
 
