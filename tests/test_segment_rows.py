@@ -67,3 +67,20 @@ def test_new_faces_replace_the_fixed_rows():
     got = rows.own(refreshed, x, x, x, np.ones((3, 4), np.int64))
     np.testing.assert_array_equal(got["gid"], refreshed["gid"])
     np.testing.assert_array_equal(got["x"], np.broadcast_to(x[1], (3, 4, 3)))
+
+
+def test_a_refresh_with_more_faces_than_room_keeps_nothing_stale():
+    """Conversion frees faces: a refresh may bring more own faces than the arrays hold
+    (the growth then has no own rows of this step to keep)."""
+    rows = SegmentRows()
+    x = np.arange(30.0).reshape(10, 3)
+    rows.own(fixed_fields(2, 1, 0), x, x, x, np.zeros((2, 4), np.int64))
+    rows.joined([halo(0, 1, 0)])
+    refreshed = fixed_fields(300, 2, 500)
+    got = rows.own(refreshed, x, x, x, np.full((300, 4), 2, np.int64))
+    np.testing.assert_array_equal(got["gid"], refreshed["gid"])
+    np.testing.assert_array_equal(got["holders"][..., :2], refreshed["holders"])
+    np.testing.assert_array_equal(got["x"], np.broadcast_to(x[2], (300, 4, 3)))
+    joined = rows.joined([halo(5, 1, 9000)])
+    np.testing.assert_array_equal(joined["gid"][:300], refreshed["gid"])
+    assert (joined["holders"][300:, :, 1:] == -1).all()

@@ -86,9 +86,9 @@ class ElementOrderSums:
         self.nodes = all_nodes[self.order]
 
     def total(self, values, contributions):
-        """The totals of ``values`` (n, k), this rank's sums, with each shared node's
-        replaced by the sum of every sharer's ``contributions`` (n_rows, 8, k: the
-        elements' of ``row_of``) in (node, element id) order."""
+        """``values`` (n, k), this rank's sums, with each shared node's replaced, in
+        place, by the sum of every sharer's ``contributions`` (n_rows, 8, k: the
+        elements' of ``row_of``) in (node, element id) order; returns ``values``."""
         width = values.shape[1]
         mine = contributions.reshape(-1, width)[self.corners]
         incoming = [np.empty((n, width)) for n in self.counts]
@@ -100,10 +100,9 @@ class ElementOrderSums:
             self.world.traffic.note("neighbour", out.nbytes)
         for request in requests:
             request.Wait()
-        total = values.copy()
-        total[self.shared] = 0.0
-        add_rows_in_order(total, self.nodes, np.concatenate([mine] + incoming), self.order)
-        return total
+        values[self.shared] = 0.0
+        add_rows_in_order(values, self.nodes, np.concatenate([mine] + incoming), self.order)
+        return values
 
 
 def _on_partner_nodes(idx, nodes, n_nodes):

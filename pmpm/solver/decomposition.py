@@ -10,6 +10,7 @@ from ..kernels.shape import HALO
 from .errors import SolverError
 from .levels import cell_ranges
 from .observe import exact_totals
+from .workspace import Workspace
 
 
 class Decomposition:
@@ -42,7 +43,7 @@ class Decomposition:
         self.lost_count = np.zeros(n_bodies)   # per body, over all ranks
         self.lost_mass = np.zeros(n_bodies)
         self.exact = bool(exact)
-        self.owner_rows = {}        # per kind, the owners' array, reused step to step
+        self.work = Workspace()     # per kind, the owners' array, reused step to step
 
     def assign_levels(self, kinds):
         for kind in kinds:
@@ -99,10 +100,7 @@ class Decomposition:
         """Room for the owner ranks of kind i's ``n`` points, kept from step to step: a
         fresh array each step was the step's one page-faulted allocation on the Taylor
         bar (1.35 MB at 0.38 mm, 330 faults a step)."""
-        rows = self.owner_rows.get(i)
-        if rows is None or len(rows) < n:
-            rows = self.owner_rows[i] = np.empty(max(n, 1024) * 5 // 4, np.int64)
-        return rows[:n]
+        return self.work.empty(f"owners{i}", n, 1, np.int64)[:, 0]
 
     def count_lost(self, points, gone):
         """Add the count and mass, per body, of the ``gone`` points (collective; the

@@ -583,12 +583,13 @@ class SegmentRows:
         """This rank's segments (views): the fields ``fixed`` (dict; the same arrays
         until the faces are refreshed) and the positions, start-of-step positions and
         velocities of the nodes ``nodes`` (ns, 4)."""
-        self.n_own = n = len(nodes)
+        n = len(nodes)
         if self.fixed_of is not fixed["gid"]:          # new faces: write the fixed rows
-            self.fixed_of = fixed["gid"]
+            self.fixed_of, self.n_own = fixed["gid"], 0   # (the old rows are not kept)
             self.reserve(fixed, n, fixed["holders"].shape[2])
             for k, column in fixed.items():
                 self.put(k, 0, column)
+        self.n_own = n
         a = self.arrays
         ksc.gather_segments(x, x0, v, nodes, a["x"][:n], a["x0"][:n], a["v"][:n])
         return self.rows(n)
