@@ -87,3 +87,22 @@ def test_with_exact_sums_the_lost_mass_is_the_same_bits_on_two_ranks(tmp_path):
         assert bar["lost_particles"] == FIRST_LAYER
         masses.append(bar["lost_mass"])
     assert masses[0] == masses[1]
+
+
+def test_a_rank_that_loses_nothing_adds_nothing_to_the_lost_mass(tmp_path):
+    """Slabs cut along z: the layer that falls out lies on one rank, the other loses no
+    particle in those steps. Its share of the lost mass is then a sum over no points,
+    which numpy's bincount gives as int64 even with float weights; summed over the
+    ranks with the other's float64 it was garbage (4.6e18 g), which stopped one rank
+    and left the other waiting in its next collective."""
+    masses = []
+    for ranks in (1, 2):
+        out = tmp_path / f"out{ranks}"
+        done = pmpm([BAR, "--out", out, "--quiet", *FREE_FLOOR, "--set",
+                     "grid.lost_mass_fraction=0.1", "--set", "decomposition.axis=z"], ranks)
+        assert done.returncode == 0, done.stderr
+        bar = summary(out)["bodies"]["bar"]
+        assert bar["lost_particles"] == FIRST_LAYER
+        masses.append(bar["lost_mass"])
+    assert masses[1] == pytest.approx(masses[0], rel=1e-12)
+    assert masses[0] == pytest.approx(FIRST_LAYER / 624 * BAR_MASS, rel=1e-12)

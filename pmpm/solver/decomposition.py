@@ -114,7 +114,10 @@ class Decomposition:
                 exact_sum.add_terms(acc, b, mass[body == b])
             lost = exact_totals(self.world, [acc])[0]
         else:
-            lost = self.world.sum(np.bincount(body, mass, minlength=nb)[:nb])
+            # float64 on every rank: bincount of no points gives int64 even with
+            # weights, and a SUM over ranks whose buffers differ in type is garbage
+            lost = self.world.sum(np.bincount(body, mass, minlength=nb)[:nb]
+                                  .astype(np.float64))
         self.lost_count += counts
         self.lost_mass += lost
 
