@@ -178,23 +178,28 @@ MATERIAL = ("stress", "F", "rho", "eps_p", "e_int", "temp", "q", "damage", "w_p"
 #: (8 B a column; a zeroed array counts as written once more); flops per particle-step
 #: for each shape, as named sums (pmpm.kernels.mpm, pmpm.kernels.shape,
 #: pmpm.materials.kernels); "grid update" counts flops per node.
+#: gimp's 1D weights per axis (pmpm.kernels.shape._gimp_three): s, c = floor(s + 1/2),
+#: d, the offsets d +- 1 (7); 0.5 / lp, d +- lp, four 1 +- and mins (11); four
+#: running-integral pieces c - c^2 / 2 (12); the outer two's differences and scales and
+#: the middle 1 - w0 - w2 (6); the slopes: four max, their differences and scales, the
+#: middle (12). Then the derivatives times 1/h (9).
+GIMP_WEIGHTS = 3 * (7 + 11 + 12 + 6)
+GIMP_AXES = GIMP_WEIGHTS + 3 * 12 + 9
+
 COUNTS = {
     "weights": {
         "read": ("x", "body", "level"), "written": (), "node_read": 0, "node_written": 0,
         # hats: per axis s = (x - o) h^-1, floor, r = s - c, 1 - r (4 x 3); per node
-        # w = wx wy wz, and gx, gy, gz two products each (8 x 8).  gimp: per axis s, c =
-        # floor(s + 1/2), d, the offsets d +- 1, 0.5 / lp (7); per node r +- lp, two
-        # running integrals (abs, min, 2 *, -, copysign, + each), their difference and
-        # scale, the slope (2 abs, 2 -, 2 max, -, *) (26 x 3); derivatives times 1/h (9)
-        "flops": {"linear": 12 + 64, "gimp": 3 * (7 + 26 * 3) + 9},
+        # w = wx wy wz, and gx, gy, gz two products each (8 x 8).  gimp: GIMP_AXES
+        "flops": {"linear": 12 + 64, "gimp": GIMP_AXES},
     },
     "particle-to-grid": {
         "read": ("x", "v", "mass", "body", "level"), "written": (),
         # nodal (8 columns) zeroed, then mass and momentum (4 columns) read and written
         "node_read": 4 * 8, "node_written": 8 * 8 + 4 * 8,
-        # weights without gradients (hats: 12 + 3 + 4 + 8 products; gimp: 3 x (7 + 18 x
-        # 3)), then per node m w (+ the row's product for gimp) and 4 adds, 3 products
-        "flops": {"linear": 27 + 8 * 8, "gimp": 3 * (7 + 18 * 3) + 9 + 27 * 9},
+        # weights without gradients (hats: 12 + 3 + 4 + 8 products; gimp: GIMP_WEIGHTS),
+        # then per node m w (+ the row's product for gimp) and 4 adds, 3 products
+        "flops": {"linear": 27 + 8 * 8, "gimp": GIMP_WEIGHTS + 9 + 27 * 9},
     },
     "grid update": {
         "read": (), "written": (),
@@ -213,12 +218,12 @@ COUNTS = {
         # trial stress (12), two double dots (22), von Mises (12 and a sqrt), yield stress
         # and return (about 25), energy (about 15), wave speed (about 8 and a sqrt), the
         # speed's norm (6): about 170
-        "flops": {"linear": 76 + 8 * 18 + 170, "gimp": 243 + 9 * (36 + 3 + 18) + 170},
+        "flops": {"linear": 76 + 8 * 18 + 170, "gimp": GIMP_AXES + 9 * (36 + 3 + 18) + 170},
     },
     # the stress pass in two: the velocity gradient (with its weights) and the update
     "velocity gradient": {
         "read": ("x", "body", "level"), "written": (), "node_read": 3 * 8, "node_written": 0,
-        "flops": {"linear": 76 + 8 * 18, "gimp": 243 + 9 * (36 + 3 + 18)},
+        "flops": {"linear": 76 + 8 * 18, "gimp": GIMP_AXES + 9 * (36 + 3 + 18)},
     },
     "constitutive update": {
         "read": ("v", "body") + MATERIAL, "written": MATERIAL, "node_read": 0,
@@ -232,14 +237,14 @@ COUNTS = {
         # weights and gradients; vol, s - q, m g (7); hats per node 3 x (5 *, 3 +-) and 3
         # adds (27 x 8); gimp per row 3 products, p (3 x 6), q (3 x 2), per node 3 x
         # (2 *, 1 +) and 3 adds
-        "flops": {"linear": 76 + 7 + 27 * 8, "gimp": 243 + 7 + 9 * (3 + 18 + 6) + 27 * 12},
+        "flops": {"linear": 76 + 7 + 27 * 8, "gimp": GIMP_AXES + 7 + 9 * (3 + 18 + 6) + 27 * 12},
     },
     "grid-to-particle": {
         "read": ("x", "v", "body", "level"), "written": ("x", "v"),
         "node_read": 6 * 8, "node_written": 0,
         # weights without gradients; per node 6 (*, +) (gimp: and the node's product);
         # x += dt dx, v += dt dv (12)
-        "flops": {"linear": 27 + 8 * 12 + 12, "gimp": 3 * (7 + 18 * 3) + 9 + 27 * 13 + 12},
+        "flops": {"linear": 27 + 8 * 12 + 12, "gimp": GIMP_WEIGHTS + 9 + 27 * 13 + 12},
     },
 }
 # the fused pass reads each column once: the union of the two parts, weights once

@@ -9,7 +9,8 @@ from pmpm.kernels.boundary import fill_face_codes
 from pmpm.kernels.records import (BodyMaterials, ExternalLoads, GridGeometry, NodeBlock,
                                   PointState)
 from pmpm.materials.state import MaterialState
-from pmpm.kernels.shape import BSPLINE, GIMP, LINEAR, MARKERS, MAX_NODES, stencil
+from pmpm.kernels.shape import (BSPLINE, GIMP, LINEAR, MARKERS, MAX_NODES, axis_stencil,
+                                axis_weights, stencil)
 from pmpm.materials.catalog import pack
 from numba import njit
 
@@ -45,6 +46,62 @@ def test_shape_functions_partition_unity_and_reproduce_linear_fields(kind, lp, r
         assert w @ coords == pytest.approx(x[p], abs=1e-12)          # reproduces x
         grad = np.stack([gx, gy, gz]) @ coords                        # d x_i / d x_j = I
         assert grad == pytest.approx(np.eye(3), abs=1e-12)
+
+
+def _ugimp_definition(r, lp):
+    """uGIMP's weight and slope at offset r (cells), half-width lp: the hat max(0, 1 - |t|)
+    averaged over [r - lp, r + lp] (its running integral at both ends), and for lp <= 0.5
+    also Bardenhagen and Kober's three pieces (pmpm.kernels.shape's docstring)."""
+    def running(t):
+        c = min(abs(t), 1.0)
+        return 0.5 + np.sign(t) * (c - 0.5 * c * c)
+
+    def hat(t):
+        return max(0.0, 1.0 - abs(t))
+
+    weight = (running(r + lp) - running(r - lp)) / (2 * lp)
+    slope = (hat(r + lp) - hat(r - lp)) / (2 * lp)
+    u = abs(r)
+    if lp <= 0.5 and u < lp:
+        assert weight == pytest.approx(1.0 - (r * r + lp * lp) / (2 * lp), abs=1e-15)
+    elif lp <= 0.5 and u <= 1.0 - lp:
+        assert weight == pytest.approx(1.0 - u, abs=1e-15)
+    elif lp <= 0.5 and u < 1.0 + lp:
+        assert weight == pytest.approx((1.0 + lp - u) ** 2 / (4 * lp), abs=1e-15)
+    return weight, slope
+
+
+@pytest.mark.parametrize("lp", [0.5, 0.25, 1 / 6, 0.125, 0.37, 0.75, 1.4])
+def test_ugimp_weights_match_the_piecewise_definition_and_sum_to_one(lp):
+    """The closed form of the three weights (for lp <= 0.5 the middle one is what the
+    outer two leave; node by node beyond) against the definition, over offsets across a
+    cell, to 1e-15; up to half a cell of half-width the three weights hold all of the
+    particle and sum to one (a particle wider than a cell, from a converted element
+    larger than two cells, reaches a fourth node that the 27-node stencil leaves out)."""
+    axes = np.zeros((9, 3))
+    for s in np.linspace(3.0, 4.0, 401)[:-1]:
+        first, count = _axis_stencil(s, GIMP, lp, axes)
+        assert count == 3
+        for j in range(3):
+            weight, slope = _ugimp_definition(s - (first + j), lp)
+            assert axes[0, j] == pytest.approx(weight, abs=1e-15)
+            assert axes[1, j] == pytest.approx(slope, abs=1e-14)
+        if lp <= 0.5:
+            assert axes[0].sum() == 1.0 or abs(axes[0].sum() - 1.0) <= 2.3e-16
+            assert abs(axes[1].sum()) <= 1e-15
+        weights_only = np.zeros((9, 3))
+        _axis_weights(s, GIMP, lp, weights_only)
+        assert np.array_equal(weights_only[0], axes[0])
+
+
+@njit
+def _axis_stencil(s, kind, lp, axes):
+    return axis_stencil(s, kind, lp, axes, 0)
+
+
+@njit
+def _axis_weights(s, kind, lp, axes):
+    return axis_weights(s, kind, lp, axes, 0)
 
 
 def _gradient_field(x, b, kind, lp):

@@ -60,8 +60,8 @@ def axis_stencil(s, kind, lp, axes, row):
         axes[row, 2] = 0.5 * (0.5 + d) ** 2
         axes[row + 1, 0], axes[row + 1, 1], axes[row + 1, 2] = d - 0.5, -2.0 * d, 0.5 + d
     else:
-        for j in range(3):
-            axes[row, j], axes[row + 1, j] = _gimp(axes[row + 2, j], lp)
+        axes[row, 0], axes[row, 1], axes[row, 2] = _gimp_three(d, lp)
+        axes[row + 1, 0], axes[row + 1, 1], axes[row + 1, 2] = _gimp_three_slopes(d, lp)
     return np.int64(c) - 1, 3
 
 
@@ -83,10 +83,7 @@ def axis_weights(s, kind, lp, axes, row):
         axes[row, 1] = 0.75 - d * d
         axes[row, 2] = 0.5 * (0.5 + d) ** 2
     else:
-        inv_width = 0.5 / lp
-        for j in range(3):
-            r = axes[row + 2, j]
-            axes[row, j] = (_hat_integral(r + lp) - _hat_integral(r - lp)) * inv_width
+        axes[row, 0], axes[row, 1], axes[row, 2] = _gimp_three(d, lp)
     return np.int64(c) - 1, 3
 
 
@@ -100,6 +97,40 @@ def _gimp(r, lp):
     weight = (_hat_integral(r + lp) - _hat_integral(r - lp)) * inv_width
     slope = (max(0.0, 1.0 - abs(r + lp)) - max(0.0, 1.0 - abs(r - lp))) * inv_width
     return weight, slope
+
+
+@njit(cache=True, inline="always")
+def _gimp_three(d, lp):
+    """uGIMP's three weights of a particle ``d`` cells from its nearest node (d in
+    [-0.5, 0.5)), for lp <= 0.5. Then the particle's support lies on the near side of
+    each outer node, inside its hat, so the outer weights are one piece of the hat's
+    running integral each (g(c) = c - c^2 / 2, no sign to test) and the middle node takes
+    what they leave: the three sum to one by construction, for a third less work than
+    three :func:`_gimp` calls. Scalars in and out: an inlined helper handed the scratch
+    array would cost a reference count on it per call (twice the transfers' time)."""
+    inv_width = 0.5 / lp
+    a, b = d + lp, d - lp
+    c0, c1 = min(1.0 + a, 1.0), min(1.0 + b, 1.0)
+    c2, c3 = min(1.0 - b, 1.0), min(1.0 - a, 1.0)
+    w0 = (c0 - 0.5 * c0 * c0 - (c1 - 0.5 * c1 * c1)) * inv_width
+    w2 = (c2 - 0.5 * c2 * c2 - (c3 - 0.5 * c3 * c3)) * inv_width
+    if lp > 0.5:                 # wider than a cell: each node's weight on its own
+        w0, w1, w2 = _gimp(d + 1.0, lp)[0], _gimp(d, lp)[0], _gimp(d - 1.0, lp)[0]
+        return w0, w1, w2
+    return w0, 1.0 - w0 - w2, w2
+
+
+@njit(cache=True, inline="always")
+def _gimp_three_slopes(d, lp):
+    """The derivatives along the offset of :func:`_gimp_three`'s weights (they sum to
+    zero by construction)."""
+    inv_width = 0.5 / lp
+    a, b = d + lp, d - lp
+    s0 = (max(0.0, -a) - max(0.0, -b)) * inv_width
+    s2 = (max(0.0, a) - max(0.0, b)) * inv_width
+    if lp > 0.5:
+        return _gimp(d + 1.0, lp)[1], _gimp(d, lp)[1], _gimp(d - 1.0, lp)[1]
+    return s0, -(s0 + s2), s2
 
 
 @njit(cache=True, inline="always")
