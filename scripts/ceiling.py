@@ -179,12 +179,12 @@ MATERIAL = ("stress", "F", "rho", "eps_p", "e_int", "temp", "q", "damage", "w_p"
 #: for each shape, as named sums (pmpm.kernels.mpm, pmpm.kernels.shape,
 #: pmpm.materials.kernels); "grid update" counts flops per node.
 #: gimp's 1D weights per axis (pmpm.kernels.shape._gimp_three): s, c = floor(s + 1/2),
-#: d, the offsets d +- 1 (7); 0.5 / lp, d +- lp, four 1 +- and mins (11); four
-#: running-integral pieces c - c^2 / 2 (12); the outer two's differences and scales and
-#: the middle 1 - w0 - w2 (6); the slopes: four max, their differences and scales, the
-#: middle (12). Then the derivatives times 1/h (9).
-GIMP_WEIGHTS = 3 * (7 + 11 + 12 + 6)
-GIMP_AXES = GIMP_WEIGHTS + 3 * 12 + 9
+#: d, the offsets d +- 1 (7); 1 / (4 lp), 2 lp, t = max(lp -+ d, 0) (6); per outer node
+#: u = min(t, 2 lp), u^2 / (4 lp) + (t - u) (5 x 2); the middle 1 - w0 - w2 (2); the
+#: slopes: 1 / (2 lp), per outer node t, u and the scale again (4 x 2), the middle (2).
+#: Then the derivatives times 1/h (9).
+GIMP_WEIGHTS = 3 * (7 + 6 + 10 + 2)
+GIMP_AXES = GIMP_WEIGHTS + 3 * 11 + 9
 
 COUNTS = {
     "weights": {
@@ -198,8 +198,8 @@ COUNTS = {
         # nodal (8 columns) zeroed, then mass and momentum (4 columns) read and written
         "node_read": 4 * 8, "node_written": 8 * 8 + 4 * 8,
         # weights without gradients (hats: 12 + 3 + 4 + 8 products; gimp: GIMP_WEIGHTS),
-        # then per node m w (+ the row's product for gimp) and 4 adds, 3 products
-        "flops": {"linear": 27 + 8 * 8, "gimp": GIMP_WEIGHTS + 9 + 27 * 9},
+        # then per node m w and 4 adds, 3 products (gimp: m w_a w_b per row, times w_c)
+        "flops": {"linear": 27 + 8 * 8, "gimp": GIMP_WEIGHTS + 9 * 2 + 27 * 8},
     },
     "grid update": {
         "read": (), "written": (),

@@ -63,10 +63,10 @@ def particles_to_grid(pts, rigid, geo, nodal, want, affine=None, layers=None):
             v0, v1, v2 = v[p, 0], v[p, 1], v[p, 2]
             for a in range(3):
                 for j in range(3):
-                    wab = axes[0, a] * axes[3, j]
+                    mab = m * (axes[0, a] * axes[3, j])
                     row = base + a * strides[0] + j * strides[1]
                     for t in range(3):
-                        n, mw = row + t * strides[2] - shift, m * (wab * axes[6, t])
+                        n, mw = row + t * strides[2] - shift, mab * axes[6, t]
                         acc[n, slot] += mw
                         acc[n, slot + 1] += mw * v0
                         acc[n, slot + 2] += mw * v1

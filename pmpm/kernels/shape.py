@@ -103,33 +103,40 @@ def _gimp(r, lp):
 def _gimp_three(d, lp):
     """uGIMP's three weights of a particle ``d`` cells from its nearest node (d in
     [-0.5, 0.5)), for lp <= 0.5. Then the particle's support lies on the near side of
-    each outer node, inside its hat, so the outer weights are one piece of the hat's
-    running integral each (g(c) = c - c^2 / 2, no sign to test) and the middle node takes
-    what they leave: the three sum to one by construction, for a third less work than
-    three :func:`_gimp` calls. Scalars in and out: an inlined helper handed the scratch
-    array would cost a reference count on it per call (twice the transfers' time)."""
-    inv_width = 0.5 / lp
-    a, b = d + lp, d - lp
-    c0, c1 = min(1.0 + a, 1.0), min(1.0 + b, 1.0)
-    c2, c3 = min(1.0 - b, 1.0), min(1.0 - a, 1.0)
-    w0 = (c0 - 0.5 * c0 * c0 - (c1 - 0.5 * c1 * c1)) * inv_width
-    w2 = (c2 - 0.5 * c2 * c2 - (c3 - 0.5 * c3 * c3)) * inv_width
+    each outer node, inside its hat, so each outer weight has two pieces of the depth t
+    of the support past the node's half-way line (:func:`_gimp_outer`) and the middle
+    node takes what they leave: the three sum to one by construction, for a third of
+    the work of three :func:`_gimp` calls. Scalars in and out: an inlined helper handed
+    the scratch array would cost a reference count on it per call (twice the
+    transfers' time)."""
     if lp > 0.5:                 # wider than a cell: each node's weight on its own
-        w0, w1, w2 = _gimp(d + 1.0, lp)[0], _gimp(d, lp)[0], _gimp(d - 1.0, lp)[0]
-        return w0, w1, w2
+        return _gimp(d + 1.0, lp)[0], _gimp(d, lp)[0], _gimp(d - 1.0, lp)[0]
+    inv_4lp, width = 0.25 / lp, 2.0 * lp
+    w0 = _gimp_outer(max(lp - d, 0.0), width, inv_4lp)
+    w2 = _gimp_outer(max(lp + d, 0.0), width, inv_4lp)
     return w0, 1.0 - w0 - w2, w2
+
+
+@njit(cache=True, inline="always")
+def _gimp_outer(t, width, inv_4lp):
+    """An outer node's uGIMP weight, t the particle's support (of ``width`` = 2 lp)
+    past the line half-way to the middle node, t >= 0: the hat's tip piece
+    t^2 / (4 lp) while the support straddles the node's hat edge (t < 2 lp), then
+    t - lp, where the whole support lies on the hat's slope (u = min(t, 2 lp): both
+    in one expression, no branch)."""
+    u = min(t, width)
+    return u * u * inv_4lp + (t - u)
 
 
 @njit(cache=True, inline="always")
 def _gimp_three_slopes(d, lp):
     """The derivatives along the offset of :func:`_gimp_three`'s weights (they sum to
-    zero by construction)."""
-    inv_width = 0.5 / lp
-    a, b = d + lp, d - lp
-    s0 = (max(0.0, -a) - max(0.0, -b)) * inv_width
-    s2 = (max(0.0, a) - max(0.0, b)) * inv_width
+    zero by construction): -+ min(t, 2 lp) / (2 lp) for the outer nodes."""
     if lp > 0.5:
         return _gimp(d + 1.0, lp)[1], _gimp(d, lp)[1], _gimp(d - 1.0, lp)[1]
+    inv_2lp, width = 0.5 / lp, 2.0 * lp
+    s0 = -min(max(lp - d, 0.0), width) * inv_2lp
+    s2 = min(max(lp + d, 0.0), width) * inv_2lp
     return s0, -(s0 + s2), s2
 
 
