@@ -26,8 +26,6 @@ from .shape import LINEAR, MAX_NODES, weights
 XI = np.array([-1.0, 1.0, 1.0, -1.0])
 ETA = np.array([-1.0, -1.0, 1.0, 1.0])
 NEWTON_STEPS = 25
-#: a node within this many cells beyond the particle still counts on the face's side
-FACE_SIDE_TOLERANCE = 1e-9
 
 
 @njit(cache=True)
@@ -380,11 +378,17 @@ def node_offset(x, p, origin, inv_h, shape, axes, k, e):
 @njit(cache=True)
 def surface_nodes(x, idx, body, normals, geo, node, pair, weight):
     """The nodes of pair k (particle p = ``idx[k]``, normal ``normals[k]`` out of the
-    face) that stand for the particle body's surface there: of the nodes the particle
+    face) that stand for the particle body's surface there: the nodes the particle
     reads (``x`` the positions the step's transfers used; ``geo`` the level's
-    GridGeometry), those no farther from the face than the particle, (x_I - x_p).n <= 0
-    (all of them when none is), with weights W_Ik = N_Ip renormalised to sum to 1 over
-    them. Fills rows (``node``, ``pair`` = k, ``weight``) and returns how many."""
+    GridGeometry), each weighted by N_Ip times a ramp of its height over the particle
+    along n in cells, clamp(1/2 - (x_I - x_p).n / h, 0, 1): 1 for the nodes half a cell
+    or more nearer the face than the particle, 0 for those half a cell or more farther,
+    linear between; renormalised to sum to 1 (all nodes at N_Ip when every ramp is 0).
+    The ramp keeps the weights continuous as the particle crosses a node plane. With a
+    step (a node counted while at or below the particle) the plane under a pressed
+    layer stopped standing for the surface at once as the layer passed it, and the
+    layer was crushed (the sphere on the FEM block at 0.25 mm gained a quarter of its
+    energy). Fills rows (``node``, ``pair`` = k, ``weight``) and returns how many."""
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
@@ -396,11 +400,12 @@ def surface_nodes(x, idx, body, normals, geo, node, pair, weight):
         reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
                         nodes, w)
         side = w.copy()
+        inv_width = 0.5 / half_width[body[p]]     # the ramp spans the particle's width
         kept = 0.0
         for j in range(reach):
             node_offset(x, p, origin, inv_h, shape, axes, j, e)
-            if e[0] * n[0] + e[1] * n[1] + e[2] * n[2] > FACE_SIDE_TOLERANCE:
-                side[j] = 0.0
+            out = e[0] * n[0] + e[1] * n[1] + e[2] * n[2]
+            side[j] *= min(1.0, max(0.0, 0.5 - out * inv_width))
             kept += side[j]
         if kept <= 0.0:                 # no node on the face's side: all of them
             side[:reach] = w[:reach]
