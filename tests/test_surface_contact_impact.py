@@ -171,17 +171,20 @@ def test_a_particle_crossing_a_node_plane_keeps_its_surface_weights(shapes):
     assert abs(sum(below.values()) - 1.0) < 1e-12 and abs(sum(above.values()) - 1.0) < 1e-12
 
 
-def test_a_sphere_whose_lowest_layer_crosses_a_node_plane_keeps_its_energy():
-    """The sphere at 100 m/s on 0.5 mm cells: the block's top under it goes down 0.19
-    mm, so the sphere's lowest particle layer (0.125 mm above the face, 0.125 mm above
-    a node plane) crosses the plane during the contact. Measured: energy -0.9 % at the
-    end (-10.0 % at its lowest), rebound 0.98. Before the surface nodes' ramp (above) the
-    energy grew by 47 % (the lowest layer crushed as the node plane under it stopped
-    standing for the surface); at 0.25 mm and 50 m/s by 24 %. Tolerances: energy within
-    6 % at the end and never 5 % above its start, rebound above 0.9."""
-    sim = simulation(["params.cell=0.5", "params.v=100"])
+@pytest.mark.parametrize("cell, speed", [(1.0, 150.0), (0.5, 100.0)])
+def test_a_sphere_whose_lowest_layer_crosses_a_node_plane_keeps_its_energy(cell, speed):
+    """The sphere faster than the 50 m/s above: the block's top under it goes down 0.24
+    mm (1 mm cells, 150 m/s: the users' resolution, 5 cells across the radius) or 0.19
+    mm (0.5 mm, 100 m/s), more than the sphere's lowest particle layer stands above a
+    node plane (0.25 and 0.125 mm), so the layer crosses the plane during the contact.
+    Measured: energy -7.9 % / -0.9 % at the end (-7.9 % / -10.0 % at its lowest),
+    rebound 0.94 / 0.98. Before the surface nodes' ramp (above) the energy grew by 72 % /
+    47 % (the lowest layer crushed as the node plane under it stopped standing for the
+    surface). Tolerances: energy within 10 % at the end and never 5 % above its start,
+    rebound above 0.9."""
+    sim = simulation([f"params.cell={cell}", f"params.v={speed}"])
     e0 = sim.energies()["total"]
     rows = sphere_history(sim)
     _, vz, total = rows.T
-    assert abs(total[-1] / e0 - 1.0) < 0.06 and total.max() <= e0 * 1.05
-    assert vz[-1] / 100.0 > 0.9
+    assert abs(total[-1] / e0 - 1.0) < 0.10 and total.max() <= e0 * 1.05
+    assert vz[-1] / speed > 0.9

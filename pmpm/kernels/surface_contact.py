@@ -381,31 +381,31 @@ def surface_nodes(x, idx, body, normals, geo, node, pair, weight):
     face) that stand for the particle body's surface there: the nodes the particle
     reads (``x`` the positions the step's transfers used; ``geo`` the level's
     GridGeometry), each weighted by N_Ip times a ramp of its height over the particle
-    along n in cells, clamp(1/2 - (x_I - x_p).n / h, 0, 1): 1 for the nodes half a cell
-    or more nearer the face than the particle, 0 for those half a cell or more farther,
-    linear between; renormalised to sum to 1 (all nodes at N_Ip when every ramp is 0).
-    The ramp keeps the weights continuous as the particle crosses a node plane. With a
-    step (a node counted while at or below the particle) the plane under a pressed
-    layer stopped standing for the surface at once as the layer passed it, and the
-    layer was crushed (the sphere on the FEM block at 0.25 mm gained a quarter of its
-    energy). Fills rows (``node``, ``pair`` = k, ``weight``) and returns how many."""
+    along n across the particle's width, clamp(1/2 - (x_I - x_p).n / (2 lp h), 0, 1)
+    (lp the body's half-width in cells, ``half_width``): 1 for the nodes lp h or more
+    nearer the face than the particle, 0 for those lp h or more farther, linear between;
+    renormalised to sum to 1 (all nodes at N_Ip when every ramp is 0). The ramp keeps
+    the weights continuous as the particle crosses a node plane. With a step (a node
+    counted while at or below the particle) the plane under a pressed layer stopped
+    standing for the surface at once as the layer passed it, and the layer was crushed
+    (the sphere on the FEM block gained 24 % of its energy at 0.25 mm and 72 % at 1 mm
+    and 150 m/s). Fills rows (``node``, ``pair`` = k, ``weight``) and returns how many."""
     origin, inv_h, lo, strides, marker, half_width = geo
     shape = len(marker)
     nodes, axes, w = np.empty(MAX_NODES, np.int64), np.empty((9, 3)), np.empty(MAX_NODES)
-    e = np.empty(3)
+    side, e = np.empty(MAX_NODES), np.empty(3)
     rows = 0
     for k in range(len(idx)):
         p = idx[k]
-        n = normals[k]
+        n0, n1, n2 = normals[k, 0], normals[k, 1], normals[k, 2]
         reach = weights(x, p, origin, inv_h, lo, strides, shape, half_width[body[p]], axes,
                         nodes, w)
-        side = w.copy()
         inv_width = 0.5 / half_width[body[p]]     # the ramp spans the particle's width
         kept = 0.0
         for j in range(reach):
             node_offset(x, p, origin, inv_h, shape, axes, j, e)
-            out = e[0] * n[0] + e[1] * n[1] + e[2] * n[2]
-            side[j] *= min(1.0, max(0.0, 0.5 - out * inv_width))
+            out = e[0] * n0 + e[1] * n1 + e[2] * n2
+            side[j] = w[j] * min(1.0, max(0.0, 0.5 - out * inv_width))
             kept += side[j]
         if kept <= 0.0:                 # no node on the face's side: all of them
             side[:reach] = w[:reach]
