@@ -54,11 +54,10 @@ contact, its notes Sec. 1.3 suggest this: FE surface nodes as the slaves).
 MPI: elements live on the rank of their centroid's slab; a node is held by every rank
 holding one of its elements. Each step every rank sends copies of its master faces whose
 box, grown by the face's depth and its nodes' move, meets the box of another rank's
-slave nodes grown by their move (one allgather of boxes, the slave nodes' and the grown
-faces', then the faces packed to the ranks whose slave box meets this rank's face box,
-known to every rank from the boxes: pmpm.comm.sparse.exchange_known, no barrier);
-each pair is computed on the rank that
-counts its slave node. The Phi sums go to each node's lowest holder and back, and the
+slave nodes of a body that touches the face's, grown by their move (one allgather of
+per-body boxes, then the faces packed to the ranks whose boxes meet, known to every rank
+from the boxes: pmpm.solver.contact_halo); each pair is computed on the rank that counts
+its slave node. The Phi sums go to each node's lowest holder and back, and the
 rows of the impulses (slave and master nodes alike) to every holder of the node, all
 summed in (node id, slave node id) order (pmpm.solver.contact_sums): every copy of a
 node takes the same total, and 1 rank agrees with N to round-off.
@@ -66,11 +65,11 @@ node takes the same total, and 1 rank agrees with N to round-off.
 import numpy as np
 
 from ..comm.shared_nodes import sum_shared_rows
-from ..comm.sparse import exchange_known
 from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
 from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
+from .contact_halo import body_boxes, exchange_halo, grown
 from .contact_sums import pad_holders, sums_at_home, sums_in_order, sums_at_holders
 from .couplings import Coupling, kept_copy
 from .errors import SetupError
@@ -206,7 +205,8 @@ class NodeContact(Coupling):
     def with_halo(self, own):
         """Own segments plus copies of the other ranks' segments whose box, grown by
         their depth and how far their nodes moved in the step, meets the box of this
-        rank's slave nodes grown by how far those moved (collective)."""
+        rank's slave nodes of a body they touch, grown by how far those moved
+        (collective; pmpm.solver.contact_halo)."""
         if self.world.size == 1:
             return own
         x = self.elements.x[self.slaves]
@@ -214,18 +214,11 @@ class NodeContact(Coupling):
         lo, hi = np.empty((len(own["x"]), 3)), np.empty((len(own["x"]), 3))
         knc.segment_boxes(own["x"], own["depth"] + self.off_tol
                           + segment_moves(own["x"], own["x0"]), lo, hi)
-        # each rank's slave box and the box of its grown faces, on every rank: all know
-        # who sends faces to whom (those whose boxes meet), so the faces go without
-        # NBX's barrier (pmpm.comm.sparse.exchange_known)
-        boxes = self.world.allgather((box_of(x, x, grow), box_of(lo, hi, 0.0)))
+        slaves = grown(body_boxes(x, x, self.node_body[self.slaves], len(self.touches)),
+                       grow)
+        received = exchange_halo(self.world, own, SEGMENT_FIELDS, lo, hi, slaves,
+                                 self.touches)
         me = self.world.rank
-        packages = []
-        for r, ((b_lo, b_hi), _) in enumerate(boxes):
-            going = np.all((hi >= b_lo) & (lo <= b_hi), axis=1) & (r != me)
-            packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
-        to = [r for r in range(len(boxes)) if r != me and meet(boxes[me][1], boxes[r][0])]
-        by = [r for r in range(len(boxes)) if r != me and meet(boxes[r][1], boxes[me][0])]
-        received = exchange_known(self.world, packages, to, by)
         return self.segment_rows.joined(received[:me] + received[me + 1:])
 
     # -- the step ---------------------------------------------------------------------
@@ -348,19 +341,6 @@ class NodeContact(Coupling):
         move = dt * (fem.v - before)
         move[nodes] += total[:, 1] / fem.mass[nodes, None]
         fem.x += move
-
-
-def box_of(lo, hi, grow):
-    """(lo, hi) of the rows of ``lo`` and ``hi`` (n, 3), grown by ``grow``; an empty box
-    (lo = inf, hi = -inf: it meets nothing) where there is no row."""
-    box_lo, box_hi = np.empty(3), np.empty(3)
-    ksc.box_bounds(lo, hi, box_lo, box_hi)          # numpy's min(axis=0): 0.2 ms a call
-    return box_lo - grow, box_hi + grow
-
-
-def meet(a, b):
-    """Whether boxes a and b, (lo, hi) each, overlap (closed: touching counts)."""
-    return bool(np.all((a[1] >= b[0]) & (a[0] <= b[1])))
 
 
 def face_buckets(seg_lo, seg_hi, faces, size):

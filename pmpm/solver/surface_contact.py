@@ -80,23 +80,21 @@ half-step velocities the trial v̄_J, and both have moved to their trial positio
 
 MPI: elements (and so segments) live on the rank of their centroid's slab, particles on
 the rank of their position's slab. Each step a rank sends copies of its segments whose
-box, inflated by ``reach`` and two cells (particles move less than a cell before they
-migrate, and a centre gets less than a cell further behind a face in a step), overlaps
-another rank's slab to that rank (a halo; no global gather). Each pair
+box, grown by how far their nodes moved, meets the box of another rank's particles of a
+body they touch, grown by the particles' reach (a halo; one allgather of per-body boxes
+and no global gather: pmpm.solver.contact_halo). Each pair
 is computed on the particle's owner. The phi sums Phi_J of nodes go to the node's lowest
 holder, summed there in (node id, particle id) order, and back; the node impulses go to every rank that holds the node, where they are
 summed in (node id, particle id) order: every copy of a shared node takes the same total,
 and 1 rank agrees with N to round-off (the sums are pmpm.solver.contact_sums', shared with
 node-to-surface contact between FEM bodies, pmpm.solver.node_contact). The four exchanges of a step (halo, phi
-sums and their answers, impulses) are packed sparse exchanges (pmpm.comm.sparse.
-exchange_arrays): a rank sends one buffer to each rank that gets something from it,
-none to the others. The grid side's S_I and nodal impulses are grid fields, summed over
+sums and their answers, impulses) are packed sparse exchanges (pmpm.comm.sparse):
+a rank sends one buffer to each rank that gets something from it, none to the others. The grid side's S_I and nodal impulses are grid fields, summed over
 the shared slab planes as the nodal masses are (two more sums a step).
 """
 import numpy as np
 
 from ..comm.shared_nodes import swap_with
-from ..comm.sparse import exchange_arrays
 from ..fem.hexahedron import FACES
 from ..kernels.boundary import FREE, column_kinds
 from ..kernels.face_match import matches_in, matching_face_counts
@@ -104,6 +102,7 @@ from ..kernels import node_contact as knc
 from ..kernels import surface_contact as ksc
 from ..kernels.portable import cube_roots
 from .contact import SURFACE_COUPLING
+from .contact_halo import body_boxes, exchange_halo, grown
 from .contact_sums import (node_holders, pad_holders, sums_at_holders, sums_at_home,
                            sums_in_order)
 from .couplings import Coupling, kept_copy
@@ -116,6 +115,8 @@ MAX_BUCKETS = 2 ** 21
 #: how the grid fields of the particle side reflect across planes of symmetry
 SCALAR_KINDS, VECTOR_KINDS = column_kinds(1), column_kinds(3, velocity=(0,))
 SEGMENT_FIELDS = ("gid", "x", "x0", "v", "inv_m", "body", "key", "holders")
+#: the halo's boxes grown by this share of a cell more than the reach, against round-off
+HALO_SLACK = 1e-6
 
 
 class SurfaceContact(Coupling):
@@ -197,26 +198,29 @@ class SurfaceContact(Coupling):
 
     def with_halo(self, own):
         """Own segments plus copies of the other ranks' segments that may reach this
-        rank's particles (collective)."""
+        rank's particles (collective; pmpm.solver.contact_halo): a segment's box grown
+        by how far its nodes moved in the step meets the box of the particles of a body
+        it touches grown by their part of the reach, twice the largest radius plus the
+        farthest one moved (a pair's centre lies within r + (r + moved + seg_move) of its
+        face, kernel ``find_pairs``)."""
         if self.world.size == 1:
             return own
-        slabs = self.decomposition.slabs
-        axis, h = slabs.axis, self.grid.h
-        plane = self.grid.origin[axis] + slabs.bounds * h
-        plane[0], plane[-1] = -np.inf, np.inf
-        pad = self.reach + 2.0 * h   # a cell for the migration that has not happened yet,
-        # one for the depth a centre may reach in a step (points move less than a cell)
-        n = len(own["x"])
-        lo, hi = np.empty((n, 3)), np.empty((n, 3))
-        knc.segment_boxes(own["x"], np.full(n, pad), lo, hi)   # numpy's min(axis=1) is slow
-        lo, hi = lo[:, axis], hi[:, axis]
-        packages = []
-        for r in range(self.world.size):
-            going = (hi >= plane[r]) & (lo <= plane[r + 1]) & (r != self.world.rank)
-            packages.append({k: own[k][going] for k in SEGMENT_FIELDS})
-        received = exchange_arrays(self.world, packages)
-        return self.segment_rows.joined(received[:self.world.rank]
-                                        + received[self.world.rank + 1:])
+        p = self.points.particles
+        slave = np.flatnonzero(self.slave_bodies[p.body])
+        x = p.x[slave]
+        moved = np.linalg.norm(x - self.start_x[slave], axis=1).max(initial=0.0)
+        radius = half_spacing(p.vol0[slave]).max(initial=0.0)
+        slack = HALO_SLACK * self.grid.h
+        points = grown(body_boxes(x, x, p.body[slave], len(self.touches)),
+                       2.0 * radius + moved + slack)
+        seg_move = np.empty(len(own["x"]))
+        ksc.segment_moves(own["x"], own["x0"], seg_move)
+        lo, hi = np.empty((len(seg_move), 3)), np.empty((len(seg_move), 3))
+        knc.segment_boxes(own["x"], seg_move + slack, lo, hi)
+        received = exchange_halo(self.world, own, SEGMENT_FIELDS, lo, hi, points,
+                                 self.touches)
+        me = self.world.rank
+        return self.segment_rows.joined(received[:me] + received[me + 1:])
 
     # -- the step ---------------------------------------------------------------------
     def after_scatter(self, grids, kinds):

@@ -1,0 +1,97 @@
+"""The halo of the FEM contacts' master segments: which of its segments a rank copies to
+which other ranks each step (particle-to-surface contact, pmpm.solver.surface_contact,
+and node-to-surface contact, pmpm.solver.node_contact).
+
+A segment of master body B can pair only with a slave point (a particle, or an FE node)
+of a body b that ``touches[b, B]``, and only where the point lies within the segment's
+reach. So each rank gathers, per body, the box of its slave points grown by the points'
+part of the reach, and the box of its segments grown by theirs, from every rank (one
+allgather of a few boxes); a segment goes to rank r when its grown box meets the box of
+one of r's slave bodies that touches its body. Every rank knows from the same boxes who
+sends to whom, so the segments go without a barrier (pmpm.comm.sparse.exchange_known).
+
+Per body, not per rank: in the perforation the plate's nodes are slaves over the whole
+plate, but the plate's faces need go only where the rod's nodes and the converted
+particles are (a few hundred faces of the 2 mm model, not the strip along the slab plane:
+2,000 a step before, in two contacts). Which segments a rank receives changes only which
+faces it may search, never which pair a point finds (the search takes the nearest face,
+ties to the smaller key, of those within its reach: all of them are sent).
+"""
+import numpy as np
+
+from ..comm.sparse import exchange_known
+
+#: a box that meets nothing
+EMPTY_BOX = (np.inf, -np.inf)
+
+
+def body_boxes(lo, hi, body, n_bodies):
+    """(n_bodies, 2, 3): per body the box of the rows of ``lo``, ``hi`` (n, 3) whose
+    ``body`` it is; lo = inf, hi = -inf (an empty box, meeting nothing) where it has no
+    row."""
+    boxes = np.empty((n_bodies, 2, 3))
+    boxes[:, 0], boxes[:, 1] = EMPTY_BOX
+    for b in np.unique(body):
+        rows = body == b
+        boxes[b, 0] = lo[rows].min(axis=0)
+        boxes[b, 1] = hi[rows].max(axis=0)
+    return boxes
+
+
+def grown(boxes, pad):
+    """The boxes (n, 2, 3) grown by ``pad`` on every side (empty boxes stay empty)."""
+    out = boxes.copy()
+    out[:, 0] -= pad
+    out[:, 1] += pad
+    return out
+
+
+def rows_meet(lo, hi, box):
+    """Per row of ``lo``, ``hi`` (n, 3) whether its box meets ``box`` (2, 3) (closed)."""
+    return np.all((hi >= box[0]) & (lo <= box[1]), axis=1)
+
+
+def boxes_meet(a, b):
+    return bool(np.all((a[1] >= b[0]) & (a[0] <= b[1])))
+
+
+def sends(segment_boxes, slave_boxes, touches):
+    """Whether a rank with the per-body ``segment_boxes`` has segments for a rank with
+    the per-body ``slave_boxes``: some slave body b touching some master body B whose
+    boxes meet."""
+    for b, B in zip(*np.nonzero(touches)):
+        if boxes_meet(segment_boxes[B], slave_boxes[b]):
+            return True
+    return False
+
+
+def exchange_halo(world, own, fields, seg_lo, seg_hi, slave_boxes, touches):
+    """The other ranks' segments that may pair with this rank's slave points, by source
+    rank as pmpm.comm.sparse.exchange_arrays returns them (collective).
+
+    Parameters
+    ----------
+    own : dict of this rank's segment fields (rows: segments), ``own["body"]`` the
+        master body of each
+    fields : the fields sent
+    seg_lo, seg_hi : (ns, 3) each segment's box grown by the segment's part of the reach
+    slave_boxes : (n_bodies, 2, 3) per slave body the box of this rank's slave points
+        grown by the points' part of the reach (empty where it has none)
+    touches : (n_bodies, n_bodies) bool, [slave body, master body]
+    """
+    body = own["body"]
+    mine = body_boxes(seg_lo, seg_hi, body, len(touches))
+    boxes = world.allgather((slave_boxes, mine))
+    me = world.rank
+    packages = []
+    for r, (theirs, _) in enumerate(boxes):
+        going = np.zeros(len(body), bool)
+        if r != me:
+            for b, B in zip(*np.nonzero(touches)):
+                if boxes_meet(mine[B], theirs[b]):
+                    going |= (body == B) & rows_meet(seg_lo, seg_hi, theirs[b])
+        packages.append({k: own[k][going] for k in fields})
+    to = [r for r in range(len(boxes)) if r != me and sends(mine, boxes[r][0], touches)]
+    by = [r for r in range(len(boxes))
+          if r != me and sends(boxes[r][1], slave_boxes, touches)]
+    return exchange_known(world, packages, to, by)
