@@ -217,6 +217,33 @@ def box_bounds(seg_lo, seg_hi, lo, hi):
 
 
 @njit(cache=True)
+def body_box_bounds(lo, hi, body, boxes):
+    """``boxes`` (n_bodies, 2, 3), filled with empty boxes (inf, -inf) by the caller:
+    per body the smallest of ``lo`` and the largest of ``hi`` over its rows (``body``
+    int64), one pass (the contacts' halo, pmpm.solver.contact_halo)."""
+    for s in range(len(lo)):
+        b = body[s]
+        for d in range(3):
+            boxes[b, 0, d] = min(boxes[b, 0, d], lo[s, d])
+            boxes[b, 1, d] = max(boxes[b, 1, d], hi[s, d])
+
+
+@njit(cache=True)
+def mark_rows_meeting(lo, hi, body, master, box, going):
+    """``going[s]`` set where row s is of body ``master`` and its box [lo, hi] meets
+    ``box`` (2, 3), closed; rows already marked stay marked."""
+    for s in range(len(lo)):
+        if going[s] or body[s] != master:
+            continue
+        meets = True
+        for d in range(3):
+            if hi[s, d] < box[0, d] or lo[s, d] > box[1, d]:
+                meets = False
+        if meets:
+            going[s] = True
+
+
+@njit(cache=True)
 def point_moves(x, x0, idx, moves):
     """``moves[k]``: how far point ``idx[k]`` moved from its ``x0`` (the sum of squares
     in numpy's order for a row norm, so the same bits)."""

@@ -82,6 +82,10 @@ def _segments():
     lo, dims = np.zeros(3), np.ones(3, np.int64)
     start, items = surface_contact.bucket_segments(seg_lo, seg_lo.copy(), lo, 1.0, dims)
     surface_contact.box_bounds(seg_lo, seg_lo.copy(), lo.copy(), lo.copy())
+    boxes, i0 = np.empty((1, 2, 3)), np.zeros(0, np.int64)
+    surface_contact.body_box_bounds(seg_lo, seg_lo.copy(), i0, boxes)
+    surface_contact.mark_rows_meeting(seg_lo, seg_lo.copy(), i0, 0, boxes[0],
+                                      np.zeros(0, np.bool_))
     f2, i0 = np.zeros((0, 3)), np.zeros(0, np.int64)
     surface_contact.gather_segments(f2, f2.copy(), f2.copy(), np.zeros((0, 4), np.int64),
                                     seg_x.copy(), seg_x.copy(), seg_x.copy())

@@ -20,6 +20,7 @@ ties to the smaller key, of those within its reach: all of them are sent).
 import numpy as np
 
 from ..comm.sparse import exchange_known
+from ..kernels import surface_contact as ksc
 
 #: a box that meets nothing
 EMPTY_BOX = (np.inf, -np.inf)
@@ -31,10 +32,8 @@ def body_boxes(lo, hi, body, n_bodies):
     row."""
     boxes = np.empty((n_bodies, 2, 3))
     boxes[:, 0], boxes[:, 1] = EMPTY_BOX
-    for b in np.unique(body):
-        rows = body == b
-        boxes[b, 0] = lo[rows].min(axis=0)
-        boxes[b, 1] = hi[rows].max(axis=0)
+    ksc.body_box_bounds(np.ascontiguousarray(lo), np.ascontiguousarray(hi),
+                        np.ascontiguousarray(body, np.int64), boxes)
     return boxes
 
 
@@ -46,23 +45,20 @@ def grown(boxes, pad):
     return out
 
 
-def rows_meet(lo, hi, box):
-    """Per row of ``lo``, ``hi`` (n, 3) whether its box meets ``box`` (2, 3) (closed)."""
-    return np.all((hi >= box[0]) & (lo <= box[1]), axis=1)
-
-
-def boxes_meet(a, b):
-    return bool(np.all((a[1] >= b[0]) & (a[0] <= b[1])))
+def meeting_pairs(segment_boxes, slave_boxes, touches):
+    """The (slave body b, master body B) pairs with ``touches[b, B]`` whose boxes meet:
+    ``slave_boxes[b]`` and ``segment_boxes[B]`` (per-body boxes, (n_bodies, 2, 3))."""
+    b, B = np.nonzero(touches)
+    seg, slave = segment_boxes[B], slave_boxes[b]
+    meet = np.all((seg[:, 1] >= slave[:, 0]) & (seg[:, 0] <= slave[:, 1]), axis=1)
+    return b[meet], B[meet]
 
 
 def sends(segment_boxes, slave_boxes, touches):
     """Whether a rank with the per-body ``segment_boxes`` has segments for a rank with
-    the per-body ``slave_boxes``: some slave body b touching some master body B whose
-    boxes meet."""
-    for b, B in zip(*np.nonzero(touches)):
-        if boxes_meet(segment_boxes[B], slave_boxes[b]):
-            return True
-    return False
+    the per-body ``slave_boxes``: some slave body touching some master body whose boxes
+    meet."""
+    return len(meeting_pairs(segment_boxes, slave_boxes, touches)[0]) > 0
 
 
 def exchange_halo(world, own, fields, seg_lo, seg_hi, slave_boxes, touches):
@@ -79,19 +75,21 @@ def exchange_halo(world, own, fields, seg_lo, seg_hi, slave_boxes, touches):
         grown by the points' part of the reach (empty where it has none)
     touches : (n_bodies, n_bodies) bool, [slave body, master body]
     """
-    body = own["body"]
+    body = np.ascontiguousarray(own["body"], np.int64)
     mine = body_boxes(seg_lo, seg_hi, body, len(touches))
     boxes = world.allgather((slave_boxes, mine))
     me = world.rank
     packages = []
+    packages, to = [], []
     for r, (theirs, _) in enumerate(boxes):
-        going = np.zeros(len(body), bool)
+        going = np.zeros(len(body), np.bool_)
         if r != me:
-            for b, B in zip(*np.nonzero(touches)):
-                if boxes_meet(mine[B], theirs[b]):
-                    going |= (body == B) & rows_meet(seg_lo, seg_hi, theirs[b])
+            slaves, masters = meeting_pairs(mine, theirs, touches)
+            for b, B in zip(slaves, masters):
+                ksc.mark_rows_meeting(seg_lo, seg_hi, body, B, theirs[b], going)
+            if len(slaves):
+                to.append(r)
         packages.append({k: own[k][going] for k in fields})
-    to = [r for r in range(len(boxes)) if r != me and sends(mine, boxes[r][0], touches)]
     by = [r for r in range(len(boxes))
           if r != me and sends(boxes[r][1], slave_boxes, touches)]
     return exchange_known(world, packages, to, by)
