@@ -2,12 +2,14 @@
 takes exactly end / dt steps of dt (landing on the output times), a dt above the stable
 step at the start is refused naming the key, and one the step falls below later stops
 the run with a fault instead of blowing up."""
+import json
+import os
 import re
 
 import numpy as np
 import pytest
 
-from clihelp import BAR, frame_list, pmpm, pmpm_lines, read_history, run_ok
+from clihelp import BAR, ROOT, frame_list, pmpm, pmpm_lines, read_history, run_ok
 from pmpm.case import CaseError, load_case
 
 
@@ -50,3 +52,38 @@ def test_dt_and_dt_max_together_are_refused(tmp_path):
     case.write_text(open(BAR).read())
     with pytest.raises(CaseError, match=r"time\.dt: give time\.dt .* not both"):
         load_case(str(case), overrides=["time.dt=1e-5", "time.dt_max=1e-4"])
+
+
+OGIVE = os.path.join(ROOT, "runs", "ogive_plate_fem.yaml")
+COARSE_OGIVE = ["params.cell=4", "params.plate_element=4", "params.rod_element=5.7"]
+
+
+def test_with_a_fixed_step_elements_convert_before_it_outruns_them():
+    """Converting bodies take the fixed step as a floor: an element whose stable step
+    falls below time.dt becomes particles (pmpm.solver.conversion.floor_rates) instead
+    of stopping the run. Without a fixed step only the cell's floor holds."""
+    from types import SimpleNamespace
+    from pmpm.solver.conversion import floor_rates
+    for dt, expected in ((None, [2.0, 0.0, 0.0]), (1.0, [1.0, 1.0, 0.0]),
+                         (0.25, [2.0, 4.0, 0.0])):
+        rules = SimpleNamespace(divisions=np.array([2, 2, 0]),   # the third: no conversion
+                                step_ratio=np.array([0.5, 0.0, 0.5]), fixed_dt=dt)
+        assert floor_rates(rules, np.ones(3)).tolist() == expected
+        assert floor_rates(rules, np.ones(3), fixed=False).tolist() == [2.0, 0.0, 0.0]
+
+
+def test_the_coarse_perforation_runs_at_a_fixed_step_its_crushed_elements_outrun(tmp_path):
+    """The 4 mm perforation at time.dt = 2e-4 ms: a crushed plate element's stable step
+    fell below it at step 92 (t = 18 us) and the run stopped; now such elements convert
+    and the run takes every step of 2e-4 ms to 25 us."""
+    out = tmp_path / "out"
+    run_ok([OGIVE, "--out", out, "--quiet"] + [
+        a for o in COARSE_OGIVE + ["time.dt=2e-4", "time.end=0.025", "output.frames=1",
+                                   "output.history_every=1"] for a in ("--set", o)])
+    header, rows = read_history(out)
+    assert rows[-1, header.index("step")] == 125
+    assert np.allclose(rows[1:, header.index("dt")], 2e-4, rtol=1e-9, atol=0)
+    with open(out / "summary.json", encoding="utf-8") as f:
+        summary = json.load(f)
+    assert summary["n_particles"]["final"] > 0        # elements converted
+    assert summary["element_step_limit"]["stable_step"] >= 2e-4 * (1 - 1e-9)

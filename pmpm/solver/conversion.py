@@ -92,6 +92,9 @@ class ConversionRules:
         self.eps_p = np.full(nb, np.inf)
         self.volume_ratio = np.zeros(nb)
         self.step_ratio = np.zeros(nb)
+        #: time.dt where the step is fixed, else None: an element whose stable step
+        #: falls below it converts too (Conversion.floor_rates)
+        self.fixed_dt = config.time.dt
         for b, body in enumerate(config.bodies):
             convert = body.convert
             if convert is None:
@@ -104,6 +107,20 @@ class ConversionRules:
     @property
     def active(self):
         return bool(self.divisions.any())
+
+
+def floor_rates(rules, cell_rates, fixed=True):
+    """(nb,) per body the stable rate (1 / step at cfl 1) at which an element converts,
+    0 where none: the cell's rate over ``step_ratio``, and with a fixed step (``fixed``
+    and time.dt set) at most 1 / time.dt, the rate of an element that the fixed step
+    would take past its stability (the paper's Table 6 runs fixed steps of 1-4e-5 ms; at
+    1 mm pmpm stopped them when a crushed plate element's step fell below 2e-5 ms)."""
+    with np.errstate(divide="ignore"):
+        floors = np.where((rules.step_ratio > 0) & (cell_rates > 0),
+                          cell_rates / np.maximum(rules.step_ratio, 1e-300), np.inf)
+    if fixed and rules.fixed_dt is not None:
+        floors = np.minimum(floors, 1.0 / rules.fixed_dt)
+    return np.where(np.isfinite(floors) & (rules.divisions > 0), floors, 0.0)
 
 
 def build_conversion(setup):
@@ -142,6 +159,7 @@ class Conversion(Transfer):
         self.kinetic_loss = 0.0      # this rank's share
         self.cell_rates = cell_rates(self.elements, self.cell) \
             if self.rules.step_ratio.any() else np.zeros(len(self.rules.step_ratio))
+        self.floor_rates = floor_rates(self.rules, self.cell_rates)
         self.warn_of_fine_elements()
 
     def warn_of_fine_elements(self):
@@ -189,11 +207,19 @@ class Conversion(Transfer):
             self.kinetic_loss = float(state["kinetic_loss"])
 
     def transfer(self):
-        """Convert the elements that meet their body's criteria (collective)."""
+        """Convert the elements that meet their body's criteria (collective). With a
+        fixed step the FEM kind's speed is then that of the elements left: a converted
+        element's stable step, below time.dt, would stop the run at the next step's check
+        (pmpm.solver.run) although the element is gone. Under time.cfl the next step
+        follows the force pass's speed, converted elements included, as before."""
         chosen = self.chosen()
         if not self.world.any(bool(chosen.any())):
             return 0
+        fem = self.elements
+        left = fem.step_rates()[~chosen].max(initial=0.0)
         count, loss = self.mover.move(chosen, self.particles_of(np.flatnonzero(chosen)))
+        if self.rules.fixed_dt is not None:
+            fem.speed = left * fem.h
         self.kinetic_loss += loss
         self.converted += count
         return count
@@ -209,13 +235,16 @@ class Conversion(Transfer):
         return self.choose(fem.body, fem.state.eps_p, fem.volumes(), fem.vol0,
                            fem.step_rates(), ROUND_OFF)
 
-    def choose(self, b, eps_p, volumes, vol0, rates, round_off):
-        """The criteria on elements of bodies ``b`` (pmpm.fem.criteria)."""
+    def choose(self, b, eps_p, volumes, vol0, rates, round_off, floors=None):
+        """The criteria on elements of bodies ``b`` (pmpm.fem.criteria); ``floors``:
+        per body the stable rate at which an element converts (default
+        :attr:`floor_rates`; 0: none)."""
         r = self.rules
+        floors = self.floor_rates if floors is None else floors
         out = np.empty(len(b), np.bool_)
         elements_to_convert(np.ascontiguousarray(b), eps_p, volumes, vol0, rates,
                             r.divisions, r.eps_p, r.volume_ratio, round_off,
-                            r.step_ratio, self.cell_rates, out)
+                            (floors > 0).astype(np.float64), floors, out)
         return out
 
     def at_the_floor(self, b, rates):
@@ -226,8 +255,9 @@ class Conversion(Transfer):
         (at rest): the other criteria cannot hold (a plastic strain of minus infinity, a
         volume ratio of 1 against a bound of minus infinity)."""
         ones = np.ones(len(b))
+        cell_floor = floor_rates(self.rules, self.cell_rates, fixed=False)
         return self.choose(b, np.full(len(b), -np.inf), ones, ones,
-                           np.ascontiguousarray(rates, np.float64), -np.inf)
+                           np.ascontiguousarray(rates, np.float64), -np.inf, cell_floor)
 
     def particles_of(self, converted):
         """The particle columns of the elements ``converted`` (local indices)."""
