@@ -51,7 +51,8 @@ def _local_specs(columns):
     """(row count, specs, error or None) of this rank's columns."""
     specs, lengths = [], set()
     for name, array in columns.items():
-        array = np.asarray(array)
+        if not (hasattr(array, "shape") and hasattr(array, "dtype")):
+            array = np.asarray(array)     # a deferred column says its shape unread
         if array.ndim == 0:
             return 0, [], f"column {name!r} is a scalar, not an array of rows"
         specs.append(ColumnSpec(str(name), array.dtype.str, tuple(array.shape[1:])))

@@ -21,6 +21,43 @@ def with_stress_invariants(columns):
     return dict(columns, pressure=pressure, von_mises=von_mises)
 
 
+class Deferred:
+    """A frame column computed only when the writer reads it (``np.asarray``), so that a
+    frame holds one derived or converted column at a time, not all of them at once (a
+    particle frame made every column again, body-major, beside the state: the steel
+    ball's peak memory was its frames', 217 bytes a particle above the step's).
+    ``shape`` and ``dtype`` say what ``compute()`` returns."""
+
+    def __init__(self, compute, shape, dtype):
+        self.compute, self.shape, self.dtype = compute, tuple(shape), np.dtype(dtype)
+
+    @property
+    def ndim(self):
+        return len(self.shape)
+
+    def __len__(self):
+        return self.shape[0]
+
+    def __array__(self, dtype=None, copy=None):
+        value = self.compute()
+        return value if dtype is None else value.astype(dtype)
+
+
+def deferred_frame_columns(columns, precision="float64"):
+    """``columns`` (arrays, or :class:`Deferred`) with ``pressure`` and ``von_mises``
+    added from ``stress`` and every float64 column cast to ``precision``, each computed
+    when it is read."""
+    stress, n = columns["stress"], len(columns["stress"])
+    out = dict(columns,
+               pressure=Deferred(lambda: stress_invariants(stress)[0], (n,), np.float64),
+               von_mises=Deferred(lambda: stress_invariants(stress)[1], (n,), np.float64))
+    dtype = PRECISIONS[precision]
+    if dtype is np.float64:
+        return out
+    return {name: Deferred(lambda v=value: np.asarray(v).astype(dtype), value.shape, dtype)
+            if value.dtype == np.float64 else value for name, value in out.items()}
+
+
 #: ``output.precision`` -> the numpy dtype of the frames' floating-point columns
 PRECISIONS = {"float64": np.float64, "float32": np.float32}
 

@@ -20,6 +20,7 @@ written before ``body_counts`` existed hold the ranks' rows one rank after anoth
 """
 import os
 import sys
+from collections.abc import Mapping
 
 import h5py
 import numpy as np
@@ -74,12 +75,30 @@ def body_ranges(blocks, rank):
 
 def by_body(columns, body):
     """``columns`` with their rows sorted by ``body`` (stable: the local order within a
-    body is kept); the columns themselves when they already are."""
+    body is kept), each column sorted when it is read (:class:`BodyMajor`: a frame holds
+    one sorted copy at a time)."""
     body = np.asarray(body)
     if body.size < 2 or bool(np.all(body[:-1] <= body[1:])):
-        return columns
-    order = np.argsort(body, kind="stable")
-    return {name: np.asarray(array)[order] for name, array in columns.items()}
+        return BodyMajor(columns, None)
+    return BodyMajor(columns, np.argsort(body, kind="stable"))
+
+
+class BodyMajor(Mapping):
+    """The columns (arrays, or pmpm.io.derived.Deferred) read in the row ``order`` (None:
+    as they are), each as a fresh array when it is read."""
+
+    def __init__(self, columns, order):
+        self.columns, self.order = columns, order
+
+    def __getitem__(self, name):
+        value = np.asarray(self.columns[name])
+        return value if self.order is None else value[self.order]
+
+    def __iter__(self):
+        return iter(self.columns)
+
+    def __len__(self):
+        return len(self.columns)
 
 
 def _attr_value(value):

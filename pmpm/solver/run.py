@@ -6,7 +6,7 @@ import numpy as np
 
 from .. import io
 from ..case.config import converted_into
-from ..io.derived import in_precision, with_stress_invariants
+from ..io.derived import Deferred, deferred_frame_columns
 from ..io.elements_h5 import ElementWriter
 from ..io.forces import ForcesWriter
 from ..io.probes import ProbeWriter
@@ -291,15 +291,15 @@ class Runner:
 
     def write_frame(self):
         p = self.sim.particles
-        columns = {"x": p.x, "displacement": p.x - p.x0, "v": p.v, "stress": p.stress,
+        displacement = Deferred(lambda: p.x - p.x0, p.x.shape, np.float64)
+        columns = {"x": p.x, "displacement": displacement, "v": p.v, "stress": p.stress,
                    "eps_p": p.eps_p,
                    "density": p.rho, "mass": p.mass, "body": p.body, "id": p.id,
                    "temp": p.temp, "e_int": p.e_int, "damage": p.damage}
         if self.sim.points.apic:
             columns["affine"] = p.affine
         self.writer.write_frame(self.sim.time, self.sim.step_count,
-                                in_precision(with_stress_invariants(columns),
-                                             self.output.precision))
+                                deferred_frame_columns(columns, self.output.precision))
         if self.element_writer:
             self.element_writer.write_frame(self.sim.time, self.sim.step_count)
         self.frame_index += 1
