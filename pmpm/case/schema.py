@@ -43,8 +43,10 @@ TIME = {
                 "takes dt, shortened only to land on an output time and on time.end. A dt "
                 "above the stable step (cfl 1) at the start is refused naming this key; "
                 "if the step falls below dt later (faster waves, squeezed elements) the "
-                "run stops with a fault, rather than blow up. time.cfl and time.dt_max "
-                "are then unused (give dt or dt_max, not both)"),
+                "run stops with a fault, rather than blow up; elements of bodies with "
+                "fem.convert turn into particles instead when their own step falls below "
+                "dt. time.cfl and time.dt_max are then unused (give dt or dt_max, not "
+                "both)"),
     "pic": Field(number(at_least(0), at_most(1)), 0.0, "1",
                  "share of the grid's velocity (PIC) in the particle velocity update; the "
                  "rest is the FLIP update v + a dt. 0: pure FLIP (no damping); a few per "
