@@ -88,15 +88,14 @@ def wagner_speed(end=END):
 def test_the_wedge_slows_and_keeps_the_water_out(surface_run):
     """From 6.15 m/s (free fall would give 6.27 by 12 ms) to 5.518 m/s: between the
     momentum balances with Wagner's pile-up (5.09) and without it (von Karman, 5.69),
-    within 2.5 % of that bracket (5.615 before the surface nodes' ramp of
+    inside that bracket (5.615 before the surface nodes' ramp of
     pmpm.kernels.surface_contact.surface_nodes, 5.85 before the particle side of surface
     contact met the faces on its grid; docs/validation/wedge_entry.md); no water
     particle centre gets deeper than a quarter of the spacing into the wedge (centres a
     fraction of a millimetre inside are the contact's own tolerance: it closes half of
     such a depth a step); the wedge only translates along y."""
     sim, inside = surface_run
-    assert (1 - TO_VON_KARMAN) * wagner_speed() < wedge_speed(sim) \
-        < (1 + TO_VON_KARMAN) * von_karman_speed()
+    assert wagner_speed() < wedge_speed(sim) < von_karman_speed()
     assert wedge_speed(sim) < 0.95 * FREE_FALL
     assert max(inside) == 0
     assert (sim.elements.v[:, [0, 2]] == 0).all()

@@ -7,12 +7,23 @@ import numpy as np
 def stress_invariants(stress):
     """(pressure, von_mises) of Voigt stresses ``stress`` (n, 6): xx, yy, zz, xy, yz, zx
     with tensor shear components (docs/CONTRACTS.md)."""
+    return pressure_of(stress), von_mises_of(stress)
+
+
+def pressure_of(stress):
+    """-tr(sigma) / 3 of Voigt stresses (n, 6)."""
+    stress = np.asarray(stress, dtype=np.float64)
+    return -(stress[:, :3].sum(axis=1) / 3.0)
+
+
+def von_mises_of(stress):
+    """sqrt(3/2 s:s) of Voigt stresses (n, 6), s the deviator (tensor shear components)."""
     stress = np.asarray(stress, dtype=np.float64)
     mean = stress[:, :3].sum(axis=1) / 3.0
     dev = stress[:, :3] - mean[:, None]
     shear = stress[:, 3:]
     j2 = 0.5 * (dev ** 2).sum(axis=1) + (shear ** 2).sum(axis=1)
-    return -mean, np.sqrt(3.0 * j2)
+    return np.sqrt(3.0 * j2)
 
 
 def with_stress_invariants(columns):
@@ -49,8 +60,8 @@ def deferred_frame_columns(columns, precision="float64"):
     when it is read."""
     stress, n = columns["stress"], len(columns["stress"])
     out = dict(columns,
-               pressure=Deferred(lambda: stress_invariants(stress)[0], (n,), np.float64),
-               von_mises=Deferred(lambda: stress_invariants(stress)[1], (n,), np.float64))
+               pressure=Deferred(lambda: pressure_of(stress), (n,), np.float64),
+               von_mises=Deferred(lambda: von_mises_of(stress), (n,), np.float64))
     dtype = PRECISIONS[precision]
     if dtype is np.float64:
         return out

@@ -215,10 +215,10 @@ class Conversion(Transfer):
         chosen = self.chosen()
         if not self.world.any(bool(chosen.any())):
             return 0
-        fem = self.elements
-        left = fem.step_rates()[~chosen].max(initial=0.0)
+        fem, fixed = self.elements, self.rules.fixed_dt is not None
+        left = fem.step_rates()[~chosen].max(initial=0.0) if fixed else None
         count, loss = self.mover.move(chosen, self.particles_of(np.flatnonzero(chosen)))
-        if self.rules.fixed_dt is not None:
+        if fixed:
             fem.speed = left * fem.h
         self.kinetic_loss += loss
         self.converted += count

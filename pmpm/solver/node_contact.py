@@ -202,7 +202,7 @@ class NodeContact(Coupling):
                  "depth": self.face_depth}
         return self.segment_rows.own(fixed, fem.x, self.start_x, fem.v, self.face_nodes)
 
-    def with_halo(self, own):
+    def with_halo(self, own, node_move):
         """Own segments plus copies of the other ranks' segments whose box, grown by
         their depth and how far their nodes moved in the step, meets the box of this
         rank's slave nodes of a body they touch, grown by how far those moved
@@ -210,7 +210,7 @@ class NodeContact(Coupling):
         if self.world.size == 1:
             return own
         x = self.elements.x[self.slaves]
-        grow = self.slave_moves().max(initial=0.0)
+        grow = node_move.max(initial=0.0)
         lo, hi = np.empty((len(own["x"]), 3)), np.empty((len(own["x"]), 3))
         knc.segment_boxes(own["x"], own["depth"] + self.off_tol
                           + segment_moves(own["x"], own["x0"]), lo, hi)
@@ -234,8 +234,9 @@ class NodeContact(Coupling):
         return moves
 
     def after_update_points(self, dt):
-        segs = self.with_halo(self.own_segments())
-        pair_n, pair_s, geo = self.find_pairs(segs)
+        node_move = self.slave_moves()
+        segs = self.with_halo(self.own_segments(), node_move)
+        pair_n, pair_s, geo = self.find_pairs(segs, node_move)
         phi = shapes(geo[:, 0], geo[:, 1])
         fem = self.elements
         slave_phi, seg_phi = self.phi_sums(segs, pair_n, pair_s, phi)
@@ -262,7 +263,7 @@ class NodeContact(Coupling):
         trial positions, before the correction), over all ranks (collective)."""
         return self.world.max(self.deepest)
 
-    def find_pairs(self, segs):
+    def find_pairs(self, segs, node_move):
         """(local slave node index, segment index, geometry (xi, eta, n, g)) of every
         slave node that has crossed a master face, approaching it or not; each face's box
         is grown by its depth plus the farthest any slave node here and any of its nodes
@@ -271,7 +272,7 @@ class NodeContact(Coupling):
         if not len(segs["key"]) or not len(self.slaves):
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
         x, x0 = np.ascontiguousarray(segs["x"]), np.ascontiguousarray(segs["x0"])
-        seg_move, node_move = segment_moves(x, x0), self.slave_moves()
+        seg_move = segment_moves(x, x0)
         seg_lo, seg_hi, _, _ = segment_boxes(
             x, segs["depth"] + self.off_tol + seg_move + node_move.max())
         # two edges: a slave body's nodes meet the faces of other bodies only, few of

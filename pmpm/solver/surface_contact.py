@@ -196,23 +196,30 @@ class SurfaceContact(Coupling):
         return self.segment_rows.own(fixed, fem.x, self.start_node_x, fem.v,
                                      self.face_nodes)
 
-    def with_halo(self, own):
+    def particle_moves(self):
+        """How far each particle moved in the step so far (0 for particles of bodies that
+        meet no face): the search's and the halo's part of the reach."""
+        p = self.points.particles
+        slave = self.slave_bodies[p.body]
+        return np.where(slave, np.linalg.norm(p.x - self.start_x, axis=1), 0.0)
+
+    def with_halo(self, own, moved):
         """Own segments plus copies of the other ranks' segments that may reach this
         rank's particles (collective; pmpm.solver.contact_halo): a segment's box grown
         by how far its nodes moved in the step meets the box of the particles of a body
         it touches grown by their part of the reach, twice the largest radius plus the
         farthest one moved (a pair's centre lies within r + (r + moved + seg_move) of its
-        face, kernel ``find_pairs``)."""
+        face, kernel ``find_pairs``; ``moved``: :meth:`particle_moves`)."""
         if self.world.size == 1:
             return own
         p = self.points.particles
         slave = np.flatnonzero(self.slave_bodies[p.body])
         x = p.x[slave]
-        moved = np.linalg.norm(x - self.start_x[slave], axis=1).max(initial=0.0)
+        farthest = moved[slave].max(initial=0.0)
         radius = half_spacing(p.vol0[slave]).max(initial=0.0)
         slack = HALO_SLACK * self.grid.h
         points = grown(body_boxes(x, x, p.body[slave], len(self.touches)),
-                       2.0 * radius + moved + slack)
+                       2.0 * radius + farthest + slack)
         seg_move = np.empty(len(own["x"]))
         ksc.segment_moves(own["x"], own["x0"], seg_move)
         lo, hi = np.empty((len(seg_move), 3)), np.empty((len(seg_move), 3))
@@ -232,8 +239,9 @@ class SurfaceContact(Coupling):
         self.start_node_x = kept_copy(self.start_node_x, self.elements.x)
 
     def after_update_points(self, dt):
-        segs = self.with_halo(self.own_segments())
-        found_p, found_s, found_geo = self.find_pairs(segs)
+        moved = self.particle_moves()
+        segs = self.with_halo(self.own_segments(), moved)
+        found_p, found_s, found_geo = self.find_pairs(segs, moved)
         phi = shapes(found_geo[:, 0], found_geo[:, 1])
         p = self.points.particles
         v_c = np.einsum("kj,kjd->kd", phi, segs["v"][found_s])
@@ -437,7 +445,7 @@ class SurfaceContact(Coupling):
         ranks (collective)."""
         return self.world.max(self.deepest)
 
-    def find_pairs(self, segs):
+    def find_pairs(self, segs, moved):
         """(particle index, segment index, geometry (xi, eta, n, g)) of every particle in
         contact with a segment (before the approach test). Each face's box is grown by
         ``reach`` plus the farthest any particle of this rank and any face node moved in
@@ -446,8 +454,6 @@ class SurfaceContact(Coupling):
         if not len(segs["key"]) or not p.n:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
         x, x0 = np.ascontiguousarray(segs["x"]), np.ascontiguousarray(segs["x0"])
-        slave = self.slave_bodies[p.body]
-        moved = np.where(slave, np.linalg.norm(p.x - self.start_x, axis=1), 0.0)
         seg_move = np.empty(len(x))
         ksc.segment_moves(x, x0, seg_move)
         grow = self.reach + moved.max() + seg_move.max()
