@@ -2,8 +2,16 @@
 docs/validation/surface_contact_impact.md.
 
     python scripts/surface_contact_impact.py sphere 1.0     # or 0.5; bar 0.5 [--set-like KEY=VALUE ...]
+    python scripts/surface_contact_impact.py sphere-sweep 1.0 10 [KEY=VALUE ...]
 
-Prints one JSON line (sphere: peak force, contact time against Hertz, rebound, energy;
+``sphere-sweep CELL N``: the sphere at N placements over one period of the particle
+lattice (``params.gap`` = k s / N, k = 0 .. N-1, s the particle spacing cell / ppc): how
+the lattice cuts the sphere sets its lowest layer, a flat disk whose size decides the
+first contact. One JSON line per placement, then one with each figure's mean, lowest
+and highest over the placements.
+
+Prints one JSON line (sphere: peak force, contact time against Hertz at the case's speed
+``params.v``, rebound, energy at time.end, the run stopped if a particle left the grid;
 the largest fall of the sphere's centre (``centre_drop``; Hertz's approach 0.274 mm) and
 of the block's top under it (``top_drop``; Hertz: half the approach), and how far the
 lowest layer of the sphere's particles closed on the block's top over the run
@@ -37,6 +45,7 @@ def sphere(cell=1.0, extra=(), end=0.03):
     sim, cfg = simulation("sphere_on_fem_block.yaml", [f"params.cell={cell}"] + list(extra))
     p = sim.particles
     sph = p.body == 1
+    v = -float(p.mass[sph] @ p.v[sph, 2] / p.mass[sph].sum())     # the impact speed
     rec = []
     e0 = sim.energies()["total"]
     lowest = block_surface = None
@@ -52,7 +61,9 @@ def sphere(cell=1.0, extra=(), end=0.03):
     t0 = time.time()
     run(sim, end, 0.5, ev)
     r = np.array(rec)
-    R, rho, E, nu, v = 5.0, 7.85e-3, 2e5, 0.3, 50.0
+    if sim.lost:        # a particle that left the grid took its energy with it
+        raise SystemExit(f"{sim.lost} particles left the grid: the figures would not hold")
+    R, rho, E, nu = 5.0, 7.85e-3, 2e5, 0.3
     m = rho * 4 / 3 * math.pi * R ** 3; ee = E / (2 * (1 - nu ** 2))
     d = (15 * m * v ** 2 / (16 * ee * math.sqrt(R))) ** 0.4
     F = 4 / 3 * ee * math.sqrt(R) * d ** 1.5
@@ -71,6 +82,24 @@ def sphere(cell=1.0, extra=(), end=0.03):
                top_drop=float(r[0, 6] - r[:, 6].min()),
                closing=float((r[0, 7] - r[0, 6]) - (r[:, 7] - r[:, 6]).min()))
     return out, r
+
+FIGURES = ("force", "contact_time", "rebound", "energy", "min_energy")
+
+
+def sphere_sweep(cell, n, extra=(), ppc=2):
+    """The sphere at ``n`` placements over one lattice period; each placement's figures
+    printed as it ends, and returned: each figure's mean, lowest and highest."""
+    spacing = cell / ppc
+    rows = []
+    for k in range(n):
+        out, _ = sphere(cell, [f"params.gap={k * spacing / n!r}"] + list(extra))
+        out["gap"] = k * spacing / n
+        print(json.dumps(out), flush=True)
+        rows.append(out)
+    return {"cell": cell, "placements": n, **{
+        f: {"mean": float(np.mean([r[f] for r in rows])), "lowest": min(r[f] for r in rows),
+            "highest": max(r[f] for r in rows)} for f in FIGURES}}
+
 
 def lowest_layer(sim):
     """The sphere's particles of its lowest layer (within a quarter spacing of the
@@ -132,6 +161,9 @@ if __name__ == "__main__":
     which = sys.argv[1]
     cell = float(sys.argv[2])
     extra = sys.argv[3:]
+    if which == "sphere-sweep":
+        print(json.dumps(sphere_sweep(cell, int(extra[0]), extra[1:])))
+        sys.exit(0)
     if which == "sphere":
         out, r = sphere(cell, extra)
         pass
