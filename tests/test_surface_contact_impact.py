@@ -205,3 +205,23 @@ def test_a_fast_rebound_stays_in_the_grid_and_keeps_its_energy():
     assert sim.lost == 0
     assert abs(total[-1] / e0 - 1.0) < 0.10
     assert vz[-1] / 200.0 > 0.9
+
+
+def test_grid_contact_between_particle_spheres_does_not_gain_energy_as_they_part():
+    """The grid-contact reference of the sphere (the block as particles, contact method
+    2, the defaults' release rule and volume gap), moved 0.1 mm against the particle
+    lattice: with the paper's end-of-step correction of bodies that separated at the
+    step's start (`contact.skip_separating: false`) the sphere left at 1.10 times its
+    impact speed with 36 % more energy than it came with, all of it gained while it
+    parted. The default (`auto`: the frictionless pairs, as here) leaves them
+    uncorrected: measured energy +4.9 %, rebound 0.98. Tolerances: energy within 10 % at
+    the end, rebound at most 1.02."""
+    sets = ["params.gap=0.1", "bodies[0].method=particles", "bodies[0].fem={}",
+            "bodies[0].particles_per_cell=2", "contact.method=2"]
+    for skip, gains in (([], False), (["contact.skip_separating=false"], True)):
+        sim = simulation(sets + skip)
+        e0 = sim.energies()["total"]
+        _, vz, total = sphere_history(sim).T
+        assert sim.lost == 0
+        assert (total[-1] / e0 - 1.0 > 0.10) == gains
+        assert (vz[-1] / 50.0 > 1.02) == gains

@@ -207,7 +207,7 @@ class ContactConfig:
     ``separation`` None: no separation check (left out or ``none``)."""
     method: int
     friction: float
-    skip_separating: bool
+    skip_separating: bool | str   # true, false or "auto"
     normal: str
     separation: float | None
     release: float | None

@@ -29,6 +29,8 @@ from .boundary import constrain_coded, mirrors
 from .shape import point_axes
 
 CNODAL, CVEL, CNEW = 10, 3, 6
+#: which pairs :func:`contact_end` leaves uncorrected where they separated at the start
+SKIP_NONE, SKIP_FRICTIONLESS, SKIP_ALL = 0, 1, 2
 
 
 @njit(cache=True)
@@ -326,12 +328,15 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
     ``gnew[:, :3]`` is the shared trial velocity, i.e. the centre of mass's (Eq. 13),
     ``gvel`` the start-of-step one.
 
-    With ``skip_separating`` (method 2 only) a body that separated from the centre of
-    mass at the start of the step (Eq. 23 false, before its start correction) is not
-    corrected at the end: the particles' velocities still separate there, and the
-    correction would do positive work on them (the elastic rings of seed 001 Sec. 5.1
-    gained 20-30 % of their energy so). Without it, Eq. 12 alone decides, as in the
-    paper.
+    ``skip_separating`` (method 2 only; SKIP_NONE, SKIP_FRICTIONLESS or SKIP_ALL): a
+    body of such a pair that separated from the centre of mass at the start of the step
+    (Eq. 23 false, before its start correction) is not corrected at the end: the
+    particles' velocities still separate there, and the correction would do positive
+    work on them (the elastic rings of seed 001 Sec. 5.1 gained 20-30 % of their energy
+    so, an elastic sphere up to 36 %). With friction the skip also drops the friction,
+    and a block at rest on a ringing slope slipped (keeping the friction alone broke
+    Coulomb's ratio), so SKIP_FRICTIONLESS skips frictionless pairs only. SKIP_NONE:
+    Eq. 12 alone decides, as in the paper.
 
     Friction is limited to mu times the normal part of this correction plus
     ``start_share[b]`` times method 2's start correction (Eq. 25, normal only): the
@@ -360,7 +365,8 @@ def contact_end(slots, gvel, gnew, rules, body_rigid, skip_separating, dt, m_tin
                 for d in range(3):
                     approach += (cvel[s, b, d] + acc[d] * dt - gnew[n, d]) * cnorm[s, b, d]
                 before = 0.0               # the approach at the start of the step
-                if skip_separating:
+                if skip_separating == SKIP_ALL or (skip_separating == SKIP_FRICTIONLESS
+                                                   and friction[b, other] == 0.0):
                     for d in range(3):
                         before += (cnodal[s, b, 1 + d] / m - gvel[n, d]) * cnorm[s, b, d]
                 if approach > 0.0 and before >= 0.0:

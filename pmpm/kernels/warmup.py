@@ -180,8 +180,8 @@ def warm_up_contact(pts, geo, block, gvel, gnew, affine=None, shape_code=LINEAR,
     rules = PairRules(np.zeros((1, 1), np.int64), np.zeros((1, 1)), np.full((1, 1), np.inf))
     rigid = np.zeros(1, np.bool_)
     contact.contact_start(slots, gvel, rules, rigid, 2, 0.0, block, 0.0)
-    contact.contact_end(slots, gvel, gnew, rules, rigid, True, 1e-3, 0.0, block,
-                        np.zeros(rigid.shape[0]))
+    contact.contact_end(slots, gvel, gnew, rules, rigid, contact.SKIP_FRICTIONLESS, 1e-3,
+                        0.0, block, np.zeros(rigid.shape[0]))
     cext = np.full((0, 1, contact.CEXT), -np.inf)
     contact.contact_extents(pts, geo, slot_of, cext, 0)
     cvol = np.zeros((0, 1))

@@ -53,7 +53,7 @@ class ContactRules:
         names = bodies.names
         nb = len(names)
         self.method = contact.method
-        self.skip_separating = self.method == 2 and contact.skip_separating
+        self.skip_separating = skip_code(contact) if self.method == 2 else kc.SKIP_NONE
         if self.method and nb > MAX_BODIES:
             raise ValueError(f"contact: at most {MAX_BODIES} bodies, got {nb}")
         self.friction = np.full((nb, nb), float(contact.friction))
@@ -124,6 +124,14 @@ def _couplings(contact, pairs, fem, converted_into):
         if b >= 0:
             coupling[a, b] = coupling[b, a] = GRID_COUPLING
     return coupling.astype(np.int64)
+
+
+def skip_code(contact):
+    """``contact.skip_separating`` as the kernel's code: false none, true every pair,
+    auto the frictionless pairs (pmpm.kernels.contact.contact_end)."""
+    if contact.skip_separating is True:
+        return kc.SKIP_ALL
+    return kc.SKIP_FRICTIONLESS if contact.skip_separating == "auto" else kc.SKIP_NONE
 
 
 def _limit(separation):
