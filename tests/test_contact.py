@@ -411,3 +411,17 @@ def test_three_bodies_at_a_node_keep_momentum_through_the_contact(method):
         assert np.abs(change).max() < 1e-12 * np.abs(cforce).max()
         moved = cnew[0, :, :3] - (cnodal[0, :, 1:4] + cforce[0] * dt) / cnodal[0, :, :1]
         assert np.abs(moved).max() > 1e-3                       # the contact acted
+
+
+@pytest.mark.parametrize("skip, words", [("auto", ", parting frictionless pairs left alone"),
+                                         ("true", ", parting pairs left alone"),
+                                         ("false", "")])
+def test_the_start_line_names_how_parting_bodies_are_treated(skip, words):
+    """The start line (pmpm.case.contact.describe_contact) ends with what
+    contact.skip_separating does, so a run says whether method 2 pushed parting bodies."""
+    from pmpm.case.contact import describe_contact
+    from pmpm.case.loader import load_config
+    config = load_config(os.path.join(CASES, "two_bars.yaml"),
+                         [f"contact.skip_separating={skip}"])
+    assert describe_contact(config.contact) == (
+        "contact: method 2, release rule (0 cells, volume gap)" + words)

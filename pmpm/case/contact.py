@@ -256,9 +256,16 @@ def describe_contact(contact):
     if not contact.method:
         return None
     if contact.release is None:
-        return f"contact: method {contact.method}, seed 001's detection"
-    return (f"contact: method {contact.method}, release rule ({contact.release:g} cells, "
-            f"{contact.gap} gap)")
+        rule = f"contact: method {contact.method}, seed 001's detection"
+    else:
+        rule = (f"contact: method {contact.method}, release rule ({contact.release:g} "
+                f"cells, {contact.gap} gap)")
+    return rule + SEPARATING.get(contact.skip_separating, "") if contact.method == 2 else rule
+
+
+#: how the start line names ``skip_separating`` (method 2 only)
+SEPARATING = {AUTO: ", parting frictionless pairs left alone",
+              True: ", parting pairs left alone", False: ""}
 
 
 def check_gap_measure(contact, grid, problems):
