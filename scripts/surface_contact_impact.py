@@ -86,9 +86,11 @@ def sphere(cell=1.0, extra=(), end=0.03):
 FIGURES = ("force", "contact_time", "rebound", "energy", "min_energy")
 
 
-def sphere_sweep(cell, n, extra=(), ppc=2):
-    """The sphere at ``n`` placements over one lattice period; each placement's figures
-    printed as it ends, and returned: each figure's mean, lowest and highest."""
+def sphere_sweep(cell, n, extra=()):
+    """The sphere at ``n`` placements over one lattice period (its spacing cell / ppc,
+    ``params.ppc`` from ``extra`` or the case's 2); each placement's figures printed as
+    it ends, and returned: each figure's mean, lowest and highest."""
+    ppc = next((float(e.split("=", 1)[1]) for e in extra if e.startswith("params.ppc=")), 2.0)
     spacing = cell / ppc
     rows = []
     for k in range(n):

@@ -287,7 +287,7 @@ BAD_CONTACT = [
      "contact.pairs[0].bodies: a body cannot be in contact with itself"),
     ({"method": 2, "separation": 0}, "contact.separation: must be > 0"),
     ({"method": 2, "skip_separating": "sometimes"},
-     "contact.skip_separating: must be true, false or auto"),
+     "contact.skip_separating: expected true, false or auto"),
     ({"method": 2, "pairs": [{"bodies": ["left", "right"], "separation": -0.5}]},
      "contact.pairs[0].separation: must be > 0"),
 ]

@@ -215,7 +215,8 @@ def test_grid_contact_between_particle_spheres_does_not_gain_energy_as_they_part
     impact speed with 36 % more energy than it came with, all of it gained while it
     parted. The default (`auto`: the frictionless pairs, as here) leaves them
     uncorrected: measured energy +4.9 %, rebound 0.98. Tolerances: energy within 10 % at
-    the end, rebound at most 1.02."""
+    the end and rebound between 0.9 and 1.02 under the default; above both with the
+    paper's rule."""
     sets = ["params.gap=0.1", "bodies[0].method=particles", "bodies[0].fem={}",
             "bodies[0].particles_per_cell=2", "contact.method=2"]
     for skip, gains in (([], False), (["contact.skip_separating=false"], True)):
@@ -223,5 +224,7 @@ def test_grid_contact_between_particle_spheres_does_not_gain_energy_as_they_part
         e0 = sim.energies()["total"]
         _, vz, total = sphere_history(sim).T
         assert sim.lost == 0
-        assert (total[-1] / e0 - 1.0 > 0.10) == gains
-        assert (vz[-1] / 50.0 > 1.02) == gains
+        if gains:
+            assert total[-1] / e0 - 1.0 > 0.10 and vz[-1] / 50.0 > 1.02
+        else:
+            assert abs(total[-1] / e0 - 1.0) < 0.10 and 0.9 < vz[-1] / 50.0 < 1.02

@@ -25,8 +25,8 @@ With method 1 or 2 every body has its own velocity field at nodes that two or mo
 bodies reach, and every pair of bodies is in contact.
 """
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Custom, Field, at_least, choice, greater,
-                     list_of, mapping, number, text, valid)
+from .fields import (INVALID, OMIT, Custom, Field, at_least, boolean_or_auto, choice,
+                     greater, list_of, mapping, number, text, valid)
 
 METHODS = {"none": 0, "0": 0, "1": 1, "2": 2}
 NORMAL_RULES = ("average", "stiffer")
@@ -67,18 +67,7 @@ def read_release(raw, path, problems):
     return number(at_least(0))(raw, path, problems)
 
 
-def read_skip(raw, path, problems):
-    """true, false or auto (the default: the frictionless pairs)."""
-    if isinstance(raw, bool):
-        return raw
-    if str(raw).strip().lower() == AUTO:
-        return AUTO
-    problems.add(path, f"must be true, false or auto; got {raw!r}")
-    return INVALID
-
-
 AUTO = "auto"
-SKIP = Custom(read_skip, "`true`, `false` or `auto`")
 SEPARATION = Custom(read_separation, "number > 0, or `none`")
 RELEASE = Custom(read_release, "number >= 0, `none` or `auto`")
 NORMAL = "`average`, `stiffer`"
@@ -129,7 +118,7 @@ CONTACT = {
                         "are updated with, at the start of the step (Sec. 3.2, Eqs. 23-25)"),
     "friction": Field(number(at_least(0)), 0.0, "1",
                       "Coulomb coefficient of every pair not listed in pairs"),
-    "skip_separating": Field(SKIP, AUTO,
+    "skip_separating": Field(boolean_or_auto(), AUTO,
                              doc="method 2 only: at the end of a step, leave uncorrected a "
                                  "body that separated from the centre of mass at its start "
                                  "(Eq. 23 false) even if its trial velocity approaches "
