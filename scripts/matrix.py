@@ -2,8 +2,8 @@
 resolution users run ("coarse") and at the one its page validates ("validated"), under
 pmpm's defaults and under each alternative of the options that trade one error for
 another (``grid.shape_functions``, the contact rule, ``time.transfer``,
-``time.scheme``). Each cell is the error against the case's reference and a pass or fail
-against the tolerance its validation page states, with the wall time.
+``time.scheme``, ``time.cfl``). Each cell is the error against the case's reference and
+a pass or fail against the tolerance its validation page states, with the wall time.
 
 Keeps every run's record in ``docs/validation/matrix.json`` (tracked beside the page, so
 that a sitting that re-runs some rows merges with the others' earlier records instead of
@@ -64,6 +64,10 @@ AXES = {
     # where bodies touch, auto is exact (rank-count independent) sums; the rows that run
     # on 2 ranks with contact take it, to show that it moves no error
     "sums": {"auto": ["grid.exact_sums=auto"], "off": ["grid.exact_sums=false"]},
+    # the Courant number: the step count, and so most of a run's cost, goes as 1 / cfl
+    # (MPM3D-F90 runs at 0.8); named at the default so that a case's own (the rings'
+    # paper 0.25) does not count
+    "step": {"cfl 0.5": ["time.cfl=0.5"], "cfl 0.8": ["time.cfl=0.8"]},
 }
 
 #: A quantity's check: ``rel``: |value / reference - 1| <= tol; ``abs``: |value -
@@ -169,7 +173,7 @@ def _abs(ref, tol):
 
 ROWS = [
     Row("taylor_bar", "Taylor bar, copper at 190 m/s: L, D against the experiment",
-        "runs/taylor_bar.yaml", 2, ("shape", "transfer", "scheme"),
+        "runs/taylor_bar.yaml", 2, ("shape", "transfer", "scheme", "step"),
         {"coarse": (["params.cell=0.76"],
                     # half a particle spacing each side is 5.6 % of D at 0.76 mm cells
                     {"L": _rel(16.2, 0.03), "D": _rel(13.5, 0.06),
@@ -179,27 +183,27 @@ ROWS = [
                         "energy": _abs(0.0, 0.01)})},
         taylor_measure, "taylor_bar.md"),
     Row("vibrating_bar", "Vibrating bar crossing cells at cfl 0.5: energy, period 4L/c",
-        "runs/vibrating_bar.yaml", 1, ("shape", "transfer", "scheme"),
+        "runs/vibrating_bar.yaml", 1, ("shape", "transfer", "scheme", "step"),
         {"coarse": (["params.periods=2"],
                     {"energy": _abs(0.0, 0.005), "period": _rel(1.0, 0.005)}),
          "validated": (["params.periods=5"],
                        {"energy": _abs(0.0, 0.005), "period": _rel(1.0, 0.005)})},
         vibrating_measure, "vibrating_bar.md"),
     Row("planar_shock", "20 GPa planar shock into copper at rest: Rankine-Hugoniot",
-        "tests/cases/planar_shock.yaml", 1, ("shape", "scheme"),
+        "tests/cases/planar_shock.yaml", 1, ("shape", "scheme", "step"),
         {"coarse": (["params.v_flyer=1000"],
                     {"Us": _abs(0.0, 0.02), "P": _abs(0.0, 0.07), "rho": _abs(0.0, 0.015),
                      "energy": _abs(0.0, 0.025)})},
         shock_measure, "planar_shock.md"),
     Row("two_bars", "Two equal elastic bars end on: the striker stops (of 10 m/s)",
-        "tests/cases/two_bars.yaml", 1, ("shape", "contact", "separating", "scheme"),
+        "tests/cases/two_bars.yaml", 1, ("shape", "contact", "separating", "scheme", "step"),
         {"coarse": (["params.cell=1.0", "time.end=0.03"],
                     {"striker": _abs(0.0, 0.1), "after": _abs(0.0, 0.1)}),
          "validated": (["params.cell=0.25", "time.end=0.03"],
                        {"striker": _abs(0.0, 0.1), "after": _abs(0.0, 0.1)})},
         two_bars_measure, "two_bars.md"),
     Row("hertz", "Two steel spheres head on at 100 m/s: Hertz",
-        "tests/cases/hertz.yaml", 2, ("shape", "contact", "separating", "sums"),
+        "tests/cases/hertz.yaml", 2, ("shape", "contact", "separating", "sums", "step"),
         {"coarse": (["params.ratio=1"],
                     {"force": _abs(0.0, 0.10), "contact_time": _abs(0.0, 0.10),
                      "approach": _abs(0.0, 0.10), "rebound": _rel(1.0, 0.07)}),
@@ -209,26 +213,26 @@ ROWS = [
         hertz_measure, "hertz.md"),
     Row("oblique_impact", "Sphere sliding onto a plate, mu 0.2: friction and spin",
         "tests/cases/oblique_impact_plate.yaml", 2,
-        ("shape", "contact", "separating", "transfer", "sums"),
+        ("shape", "contact", "separating", "transfer", "sums", "step"),
         {"coarse": (["grid.cell=1.0"],
                     {"J_t/J_n": _rel(0.2, 0.05), "spin": _rel(1.0, 0.05)}),
          "validated": (["grid.cell=0.5"],
                        {"J_t/J_n": _rel(0.2, 0.02), "spin": _rel(1.0, 0.02)})},
         None, "angular_momentum.md"),
     Row("sphere_rolling", "Sphere rolling down an incline, mu 0.4 (stick): Eq. 36",
-        "runs/sphere_rolling.yaml", 2, ("shape", "contact", "separating", "sums"),
+        "runs/sphere_rolling.yaml", 2, ("shape", "contact", "separating", "sums", "step"),
         {"coarse": (["params.cell=400"], {"travel": _rel(1.0, 0.06)}),
          "validated": (["params.cell=200"], {"travel": _rel(1.0, 0.06)})},
         rolling_measure, "contact_rules.md"),
 ]
 ROWS += [
     Row("wave_bar", "Elastic wave in a 100 mm bar: RMS of sigma_xx at 15.6 us / load",
-        "runs/wave_bar.yaml", 2, ("shape", "scheme"),
+        "runs/wave_bar.yaml", 2, ("shape", "scheme", "step"),
         {"coarse": (["params.cell=1.0", "params.width=2.0"], {"rms": _abs(0.0, 0.2)}),
          "validated": (["params.cell=0.25", "params.width=0.5"], {"rms": _abs(0.0, 0.1)})},
         wave_measure, "wave_bar.md"),
     Row("rings", "Two elastic rings colliding: energy drift while they touch",
-        "runs/rings.yaml", 2, ("shape", "contact", "separating", "scheme", "sums"),
+        "runs/rings.yaml", 2, ("shape", "contact", "separating", "scheme", "sums", "step"),
         {"coarse": (["params.cell=4"], {"drift": _abs(0.0, 0.02)}),
          "validated": (["params.cell=2"], {"drift": _abs(0.0, 0.02)})},
         rings_measure, "rings.md"),
@@ -417,9 +421,9 @@ notes in its HEADER and FOOTER). Each case with an exact or published answer run
 resolution users run ("coarse") and at the one its page validates ("validated"), first
 at pmpm's defaults (**defaults**: `grid.shape_functions: gimp`, `contact.release: auto`
 and `contact.gap: auto` (the release rule with the volume gap; with bspline the reach
-gap), `contact.skip_separating: auto`, `time.transfer: flip`, `time.scheme: usf`, set
-explicitly so that
-what a case file names for its paper does not count), then with one option changed at a
+gap), `contact.skip_separating: auto`, `time.transfer: flip`, `time.scheme: usf`,
+`time.cfl: 0.5`, set explicitly so that what a case file names for its paper does not
+count), then with one option changed at a
 time. A result lists each quantity's error against the case's reference (relative in %,
 or absolute where the reference is 0: m/s for the bars, fractions elsewhere), **x**
 where it leaves the tolerance its page states, the wall time on the ranks the row

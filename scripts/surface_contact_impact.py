@@ -59,7 +59,7 @@ def sphere(cell=1.0, extra=(), end=0.03):
         rec.append((s.time, vz, zc, s.energies()["total"], s.surface.last_pairs if s.surface else 0, s.surface.largest_penetration if s.surface else 0.0,
                     block_surface(s), p.x[lowest, 2].mean()))
     t0 = time.time()
-    run(sim, end, 0.5, ev)
+    run(sim, end, cfg.time.cfl, ev)
     r = np.array(rec)
     if sim.lost:        # a particle that left the grid took its energy with it
         raise SystemExit(f"{sim.lost} particles left the grid: the figures would not hold")
@@ -142,7 +142,7 @@ def bar(cell=0.5, extra=(), end=0.012, t_profile=0.008):
             else:
                 bb = p.body == 1
                 prof["x"] = p.x[bb, 0].copy(); prof["s"] = p.stress[bb, 0].copy()
-    run(sim, end, 0.5, ev)
+    run(sim, end, cfg.time.cfl, ev)
     r = np.array(rec)
     c = np.sqrt(1e5 / 5e-3); v0 = 10.0; sig = 5e-3 * c * v0 / 2
     x, s = prof["x"], prof["s"]

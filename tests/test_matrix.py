@@ -25,6 +25,7 @@ def test_the_matrix_defaults_are_pmpms():
     assert list(matrix.AXES["contact"])[0] == "auto"
     assert matrix.AXES["sums"]["auto"] == [f"grid.exact_sums={GRID['exact_sums'].default}"]
     assert list(matrix.AXES["sums"])[0] == "auto"
+    assert list(matrix.AXES["step"].values())[0] == [f"time.cfl={TIME['cfl'].default}"]
 
 
 @pytest.mark.parametrize("name", matrix.CI_ROWS)
