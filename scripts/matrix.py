@@ -337,8 +337,9 @@ def cell_text(record):
         return "refused / failed"
     parts = [f"{key} {cell_error(key, c)}{'' if c['pass'] else ' **x**'}"
              for key, c in record["cells"].items()]
-    wall = record["wall_s"] - record.get("compile_s", 0.0)
-    return "; ".join(parts) + f" ({wall:.1f} s{measured_at(record)})"
+    # summary.json's wall_s is the run loop's, after the warm-up compiled the kernels
+    # (compile_s, kept apart): taking compile_s off it again made a cold run's negative
+    return "; ".join(parts) + f" ({record['wall_s']:.1f} s{measured_at(record)})"
 
 
 def measured_at(record):
