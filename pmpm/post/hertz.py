@@ -1,4 +1,5 @@
-"""Two identical elastic spheres meeting head-on: Hertz's answer and the measured one.
+"""Two identical elastic spheres meeting head-on, or a sphere dropped on a half-space of
+its own material: Hertz's answer and the measured one.
 
 Each sphere has radius R, density rho, Young's modulus E, Poisson's ratio nu and speed v
 towards the other (relative speed 2v). Hertz (Johnson, Contact Mechanics, Sec. 11.4) with
@@ -16,13 +17,17 @@ from .contact import read_history
 HertzAnswer = namedtuple("HertzAnswer", "mass approach force contact_time radius")
 
 
-def hertz_answer(radius, density, young, poisson, speed):
+def hertz_answer(radius, density, young, poisson, speed, on_half_space=False):
     """Hertz's largest approach (mm), peak force (N), contact time (ms) and largest
-    contact radius (mm) for two identical spheres, each of mass ``mass`` (g)."""
+    contact radius (mm) for two identical spheres, each of mass ``mass`` (g), each at
+    ``speed`` towards the other; or (``on_half_space``) for one sphere at ``speed`` onto
+    a half-space of the same material (effective mass m, radius R, relative speed v)."""
     mass = density * 4.0 / 3.0 * math.pi * radius ** 3
-    m_eff, r_eff = mass / 2.0, radius / 2.0
+    if on_half_space:
+        m_eff, r_eff, relative = mass, radius, speed
+    else:
+        m_eff, r_eff, relative = mass / 2.0, radius / 2.0, 2.0 * speed
     e_eff = young / (2.0 * (1.0 - poisson ** 2))
-    relative = 2.0 * speed
     approach = (15.0 * m_eff * relative ** 2 / (16.0 * e_eff * math.sqrt(r_eff))) ** 0.4
     force = 4.0 / 3.0 * e_eff * math.sqrt(r_eff) * approach ** 1.5
     contact_time = 2.868 * (m_eff ** 2 / (r_eff * e_eff ** 2 * relative)) ** 0.2
@@ -58,16 +63,33 @@ def hertz_measures(out_dir, answer, radius, lower="lower", upper="upper"):
     (:func:`hertz_share_above`); the approach is 2 R less the distance between the
     centroids (the quarter or whole spheres' centroids lie on the axis)."""
     hist = read_history(out_dir)
-    t, v = hist["time"], hist[f"{lower}.vz"]
+    v = hist[f"{lower}.vz"]
+    measured = _pulse(hist["time"], -v, answer)
+    approach = 2.0 * radius - (hist[f"{upper}.z"] - hist[f"{lower}.z"])
+    return {**measured, "approach": approach.max() / answer.approach - 1.0,
+            "rebound": -v[-1] / v[0],
+            "energy": hist["total"][-1] / hist["total"][0] - 1.0}
+
+
+def dropped_sphere_measures(out_dir, answer, sphere="sphere"):
+    """The figures of :func:`hertz_measures` (not the approach) for a sphere dropped
+    along -z on a half-space (``hertz_answer(..., on_half_space=True)``): its force from
+    the rate of change of its mean velocity, the contact time, the rebound speed over
+    the impact speed and the change of the total energy."""
+    hist = read_history(out_dir)
+    v = hist[f"{sphere}.vz"]
+    return {**_pulse(hist["time"], v, answer), "rebound": -v[-1] / v[0],
+            "energy": hist["total"][-1] / hist["total"][0] - 1.0}
+
+
+def _pulse(t, v, answer):
+    """Peak force and contact time against Hertz's, from a body's mean velocity ``v``
+    along the direction the contact pushes it (mass ``answer.mass``)."""
     window = max(1, int(round(answer.contact_time / 40 / np.median(np.diff(t)))))
     force = answer.mass * (v[window:] - v[:-window]) / (t[window:] - t[:-window])
     mid = 0.5 * (t[window:] + t[:-window])
-    touching = np.flatnonzero(-force > TOUCHING * (-force).max())
+    touching = np.flatnonzero(force > TOUCHING * force.max())
     contact_time = mid[touching[-1]] - mid[touching[0]]
-    approach = 2.0 * radius - (hist[f"{upper}.z"] - hist[f"{lower}.z"])
-    return {"force": (-force).max() / answer.force - 1.0,
+    return {"force": force.max() / answer.force - 1.0,
             "contact_time": contact_time / (answer.contact_time
-                                             * hertz_share_above(TOUCHING)) - 1.0,
-            "approach": approach.max() / answer.approach - 1.0,
-            "rebound": -v[-1] / v[0],
-            "energy": hist["total"][-1] / hist["total"][0] - 1.0}
+                                             * hertz_share_above(TOUCHING)) - 1.0}
