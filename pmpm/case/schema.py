@@ -35,7 +35,7 @@ TIME = {
     "cfl": Field(number(greater(0), at_most(1)), 0.5, "1",
                  "Courant number: the fraction of the stable time step (seed 001 Eq. 35) "
                  "that is taken. 0.8 takes 0.63 times the steps and keeps the validation "
-                 "matrix's rows, but surface contact with FEM bodies and perforations "
+                 "matrix's particle rows, but surface contact with FEM bodies and perforations "
                  "with failure gain energy there (docs/validation/defaults.md)"),
     "dt_max": Field(number(greater(0)), None, "ms",
                     "upper limit on the time step (none: no limit)"),
