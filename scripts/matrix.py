@@ -32,9 +32,10 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _common import ROOT, run_case, save_json, write_lines  # noqa: E402
 
 from pmpm.post import (axial_profiles, dropped_sphere_measures, energy_steps,  # noqa: E402
-                       hertz_answer, hertz_measures, oblique_impact, planar_shock_errors, read_history,
-                       read_summary, read_frame, rms_error, rolling_sphere_travel,
-                       taylor_shape, travel, until_separation, wave_bar_stress)
+                       hertz_answer, hertz_measures, oblique_impact, planar_shock_errors,
+                       read_history, read_summary, read_frame, rms_error,
+                       rolling_sphere_travel, taylor_shape, travel, until_separation,
+                       wave_bar_stress)
 
 OUT = os.path.join(ROOT, "results", "matrix")
 PAGE = os.path.join(ROOT, "docs", "validation", "matrix.md")
