@@ -157,8 +157,9 @@ def load_checked_case(path, overrides):
 
 def warn_about_case(case, path):
     """Rank 0: one line for each thing the case may do badly though it is valid."""
-    from .case.fem import grid_coupling_warnings
-    for line in grid_coupling_warnings(case, os.path.dirname(os.path.abspath(path))):
+    from .case.fem import grid_coupling_warnings, surface_contact_step_warnings
+    lines = grid_coupling_warnings(case, os.path.dirname(os.path.abspath(path)))
+    for line in lines + surface_contact_step_warnings(case):
         sys.stderr.write(f"pmpm: warning: {line}\n")
     sys.stderr.flush()
 

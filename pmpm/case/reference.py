@@ -173,8 +173,9 @@ never falls back silently to a default.
 
 Warnings (the run goes on): the energy balance grown past `output.energy_warning`; an
 FEM body met on the grid (CFEMP) with elements wider than 1.5 cells, naming the ratio
-(particles leak between its nodes); a stale lock of a run that is no longer running,
-replaced.
+(particles leak between its nodes); particles meeting an FEM body by surface contact
+(ICFEMP) at a `time.cfl` above 0.5 (the contact's energy error grows with the step); a
+stale lock of a run that is no longer running, replaced.
 
 ## Units
 
