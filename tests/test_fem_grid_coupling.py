@@ -218,3 +218,41 @@ def test_grid_coupling_on_two_ranks_matches_one_rank(plate_end):
     assert np.abs(na["node_x"] - nb["node_x"]).max() < 1e-10 * 0.04
     assert np.abs(na["node_v"] - nb["node_v"]).max() < 1e-10 * 3.0
     assert read_summary(one)["bodies"]["block"]["velocity"][2] > -2.0   # it hit the plate
+
+
+def test_only_fe_nodes_near_another_body_map_to_the_grid_and_nothing_else_changes(
+        monkeypatch):
+    """CFEMP maps to the grid only the FE nodes within NEAR_CELLS of a body they meet
+    there (the seed's local multi-mesh contact): on the rolling sphere's plate (R = 1) a
+    fraction of its nodes, and the particles and FE nodes move to the same bits as when
+    every node is mapped (a far node shared no grid node with the sphere, so it met
+    nobody and took no correction)."""
+    from mpi4py import MPI
+    from pmpm.case import fill_body
+    from pmpm.case.loader import load_config
+    from pmpm.comm import World
+    from pmpm.solver import fem_grid
+    from pmpm.solver.simulation import Simulation
+    path = os.path.join(os.path.dirname(CASES), "..", "runs", "sphere_rolling_fem.yaml")
+    sets = ["contact.coupling=grid", "params.method=1"]
+
+    def run(every_node):
+        if every_node:              # before set-up: the grid's blocks must cover them all
+            monkeypatch.setattr(fem_grid.FemGridNodes, "near_others",
+                                lambda self: np.ones(len(self.elements.x), bool))
+        config = load_config(path, sets)
+        sim = Simulation.from_config(World(MPI.COMM_SELF), config, os.path.dirname(path),
+                                     fill_body)
+        kind = next(k for k in sim.stepper.kinds if isinstance(k, fem_grid.FemGridNodes))
+        mapped = []
+        for _ in range(40):
+            sim.advance(0.5 * sim.grid.h / sim.fastest_speed())
+            mapped.append(len(kind.pts.mass))
+        p, e = sim.particles, sim.elements
+        return p.x.copy(), p.v.copy(), e.x.copy(), e.v.copy(), max(mapped), len(e.x)
+
+    near, every = run(False), run(True)
+    for a, b in zip(near[:4], every[:4]):
+        assert np.array_equal(a, b)
+    assert every[4] == every[5]                     # all the plate's nodes, before
+    assert near[4] < 0.3 * every[4], (near[4], every[4])

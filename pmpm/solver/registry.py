@@ -184,7 +184,7 @@ def grid_coupled_fe_nodes(setup):
     """The FE nodes of grid-coupled FEM bodies as a kind on the grid."""
     s = setup
     nodes = grid_coupled_nodes(s.config, s.rules, s.elements, s.couplings, s.decomposition,
-                               s.grid, s.bodies, s.m_tiny)
+                               s.grid, s.bodies, s.m_tiny, s.points)
     return nodes[0] if nodes else None
 
 
