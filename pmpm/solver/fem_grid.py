@@ -4,11 +4,12 @@
 The FE nodes of every FEM body that meets a particle body on the grid
 (``ContactRules.coupling`` = GRID_COUPLING) take part in the coarse grid's phases as if
 they were particles of their body, through :class:`FemGridNodes`, a body kind of the
-step beside the particles. Only the nodes within NEAR_CELLS cells of the box of a body
-they meet on the grid do (the seed's local multi-mesh contact): a node farther away
+step beside the particles. Only the nodes within NEAR_CELLS cells (and twice the widest
+particle's half-spacing) of the box of a body they meet on the grid do (the seed's
+local multi-mesh contact): a node farther away
 shares no grid node with that body, so on the grid it met nobody and took no correction.
-The rolling sphere's plate maps 2,024 of its 29,997 nodes, and the run moves to the same
-bits as with every node mapped, at 0.71 times the step's cost
+The rolling sphere's plate maps 2,875 of its 29,997 nodes, and the run moves to the same
+bits as with every node mapped, at 0.74 times the step's cost
 (docs/performance-notes.md):
 
 * map to the grid: they scatter mass and momentum m_K v_K (v at the step's start) into
@@ -74,8 +75,9 @@ from .workspace import Workspace
 
 
 #: how near (in cells) an FE node must come to the box of a body its body meets on the
-#: grid to map to the grid: a node and a point share a grid node only within their two
-#: stencils' reach (at most 1.5 + 1.5 cells and a particle's half-width), with a margin
+#: grid to map to the grid, beyond twice the widest particle's half-spacing: a node and
+#: a point share a grid node only within their two stencils' reach (a cell and a
+#: half-width each), with a margin
 NEAR_CELLS = 4.0
 
 
@@ -130,8 +132,9 @@ class FemGridNodes(BodyKind):
         return nodes, x
 
     def near_others(self):
-        """(FE nodes,) bool: the nodes within NEAR_CELLS cells of the box of a body their
-        body meets on the grid (over all ranks: the same nodes on any rank count). A node
+        """(FE nodes,) bool: the nodes within NEAR_CELLS cells (and twice the widest
+        particle's half-spacing) of the box of a body their body meets on the grid (over
+        all ranks: the same nodes on any rank count). A node
         farther than that shares no grid node with that body's points, so on the grid it
         met nobody and took no correction: the seed's local multi-mesh contact maps only
         the near ones. Collective."""
@@ -147,7 +150,8 @@ class FemGridNodes(BodyKind):
             boxes[:, 1] = np.maximum(boxes[:, 1], more[:, 1])
         lo = self.world.min(np.ascontiguousarray(boxes[:, 0]))
         hi = self.world.max(np.ascontiguousarray(boxes[:, 1]))
-        reach = grown(np.stack([lo, hi], axis=1), NEAR_CELLS * self.grid.h)
+        reach = grown(np.stack([lo, hi], axis=1), NEAR_CELLS * self.grid.h
+                      + 2.0 * self.widest_particle())
         near = np.zeros(len(e.x), bool)
         for b in np.flatnonzero(self.coupled):
             mine = e.node_body == b
@@ -155,6 +159,13 @@ class FemGridNodes(BodyKind):
                 box = reach[other]
                 near[mine] |= np.all((e.x[mine] >= box[0]) & (e.x[mine] <= box[1]), axis=1)
         return near
+
+    def widest_particle(self):
+        """The largest half-spacing of any particle, over all ranks (converted elements'
+        particles can be wider than a cell, and their stencils reach that much farther).
+        Collective."""
+        vol0 = self.points.particles.vol0 if self.points is not None else np.zeros(0)
+        return 0.5 * float(np.cbrt(self.world.max(float(vol0.max(initial=0.0)))))
 
     def mappers(self, x):
         """The rank whose slab holds each position (the kernels' cell rule)."""
