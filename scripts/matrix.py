@@ -185,6 +185,13 @@ def _abs(ref, tol):
     return Check(ref, "abs", tol)
 
 
+#: Hertz's figures within 10 % (the two spheres: rebound 7 %, hertz.md; the sphere on
+#: the FEM block: issue 24's 10 % and the energy within 5 %)
+HERTZ_CHECKS = {"force": _abs(0.0, 0.10), "contact_time": _abs(0.0, 0.10),
+                "approach": _abs(0.0, 0.10), "rebound": _rel(1.0, 0.07)}
+ON_BLOCK_CHECKS = {"force": _abs(0.0, 0.10), "contact_time": _abs(0.0, 0.10),
+                   "rebound": _rel(1.0, 0.10), "energy": _abs(0.0, 0.05)}
+
 ROWS = [
     Row("taylor_bar", "Taylor bar, copper at 190 m/s: L, D against the experiment",
         "runs/taylor_bar.yaml", 2, ("shape", "transfer", "scheme", "step"),
@@ -219,11 +226,9 @@ ROWS = [
     Row("hertz", "Two steel spheres head on at 100 m/s: Hertz",
         "tests/cases/hertz.yaml", 2, ("shape", "contact", "separating", "sums", "step"),
         {"coarse": (["params.ratio=1"],
-                    {"force": _abs(0.0, 0.10), "contact_time": _abs(0.0, 0.10),
-                     "approach": _abs(0.0, 0.10), "rebound": _rel(1.0, 0.07)}),
+                    HERTZ_CHECKS),
          "validated": (["params.ratio=2"],
-                       {"force": _abs(0.0, 0.10), "contact_time": _abs(0.0, 0.10),
-                        "approach": _abs(0.0, 0.10), "rebound": _rel(1.0, 0.07)})},
+                       HERTZ_CHECKS)},
         hertz_measure, "hertz.md"),
     Row("oblique_impact", "Sphere sliding onto a plate, mu 0.2: friction and spin",
         "tests/cases/oblique_impact_plate.yaml", 2,
@@ -256,11 +261,9 @@ ROWS += [
         "contact (ICFEMP): Hertz", "tests/cases/sphere_on_fem_block.yaml", 1,
         ("shape", "step"),
         {"coarse": (["params.cell=1.0"],
-                    {"force": _abs(0.0, 0.10), "contact_time": _abs(0.0, 0.10),
-                     "rebound": _rel(1.0, 0.10), "energy": _abs(0.0, 0.05)}),
+                    ON_BLOCK_CHECKS),
          "validated": (["params.cell=0.5"],
-                       {"force": _abs(0.0, 0.10), "contact_time": _abs(0.0, 0.10),
-                        "rebound": _rel(1.0, 0.10), "energy": _abs(0.0, 0.05)})},
+                       ON_BLOCK_CHECKS)},
         dropped_sphere_measure, "surface_contact_impact.md"),
 ]
 ROW = {row.name: row for row in ROWS}
