@@ -523,7 +523,8 @@ def release_open_gaps(slots, cext, cvol, release, half_width, m_tiny, block):
 @njit(cache=True)
 def contact_volumes(pts, volume, geo, slot_of, cvol, want, layers=None):
     """Each body's shape-function-weighted particle volume sum_p S_ip V_p at the contact
-    nodes, in cells^3 (``volume``: the particles' current volumes), for the volume gap
+    nodes, in cells^3 (``volume``: the particles' volumes, initial under uGIMP:
+    ``pmpm.solver.particle_bodies.ParticleBodies.gap_volumes``), for the volume gap
     (:func:`volume_gap`). With particles that tile their body (uGIMP domains, or hats
     sampled at the particles) it is the integral of the node's trilinear hat over the
     body's material. With ``layers`` (a LayerSums over the slots, rows (n_slots,
