@@ -81,17 +81,27 @@ def test_bars_part_at_the_elastic_speeds_and_keep_their_momentum(runs, key, rho_
     assert abs(measured - length) < 0.03 * length
 
 
-@pytest.mark.parametrize("shape", ["gimp", "bspline"])
-def test_27_node_shapes_release_equal_bars(tmp_path, shape):
+@pytest.mark.parametrize("shape, gap, cell, parted", [("gimp", "reach", 0.5, 0.006),
+                                                      ("bspline", "reach", 0.5, 0.006),
+                                                      ("gimp", "volume", 0.5, 0.012),
+                                                      ("gimp", "volume", 0.25, 0.012)])
+def test_27_node_shapes_release_equal_bars(tmp_path, shape, gap, cell, parted):
     """The 27-node shapes reach a node further; the striker still stops and stays, with
-    the reach gap (exact for flat faces on grid lines). The volume gap, the default with
-    gimp, leaves the gimp striker pushed to -0.13 m/s after parting here (the linear one
-    stays at -0.03): docs/validation/defaults.md."""
-    run_pmpm(CASE, tmp_path, 1, SHORT + [f"grid.shape_functions={shape}", "contact.gap=reach"])
-    vs, vb, drift_s, drift_b = after_parting(tmp_path, 0.006)
-    assert abs(vs) < 0.1
+    the reach gap (exact for flat faces on grid lines) and with the volume gap (gimp's
+    default). The volume gap weighed gimp's shape functions with the particles' current
+    volumes: the node one cell into the bar, which the loaded striker barely reached,
+    read a gap of the order of the strain and let go during the impact, and the striker
+    left at -0.13 m/s (0.5 mm) and -0.11 m/s (0.25 mm): docs/validation/two_bars.md.
+    The volume gap lets go of the touching ends later (``parted``, ms) than the reach gap,
+    and they may touch again, barely (in the exact answer they touch at rest, without
+    force): their velocities then change by less than 0.02 m/s."""
+    run_pmpm(CASE, tmp_path, 1, SHORT + [f"grid.shape_functions={shape}",
+                                         f"contact.gap={gap}", f"params.cell={cell}"])
+    vs, vb, drift_s, drift_b = after_parting(tmp_path, parted)
+    assert abs(vs) < 0.06
     assert abs(RHO * LS * vs + RHO * LB * vb - RHO * LS * V0) < 1e-6 * RHO * LS * V0
-    assert drift_s < 1e-6 and drift_b < 1e-6
+    still = 1e-6 if gap == "reach" else 0.02
+    assert drift_s < still and drift_b < still
 
 
 @pytest.mark.parametrize("lb, shape, gap", [(10.0, "linear", "reach"),

@@ -183,12 +183,16 @@ class ParticleBodies(BodyKind):
                                             state.slot_starts))
 
     def gap_volumes(self, state):
-        """The particle volumes the volume gap weighs the shape functions with, so that
-        their sum at a node is the integral of its hat over the body: under uGIMP a
-        weight is the hat's mean over the particle's undeformed domain, whose volume is
-        the initial one; under the hats (sampled at the particles) it is the current
-        volume. With the current volume under uGIMP, a node that a loaded body barely
-        reaches read a gap of the order of the strain (docs/validation/two_bars.md)."""
+        """The particle volumes the volume gap weighs the shape functions with. Under the
+        hats (sampled at the particles) the current volumes, whose sum at a node is the
+        integral of its hat over the body. Under uGIMP the initial ones: a weight is the
+        hat's mean over the particle's undeformed domain, so V0 S_ip is the hat's
+        integral over that domain, and where the domains overlap under compression the
+        reading errs towards closed by about the strain. That holds a pressed contact
+        closed: with the current volumes, or the domains stretched with the strain so
+        that they tile (tried), the reading of touching faces is zero give or take the
+        strain, and a node that a loaded body barely reached let go during an impact
+        (docs/validation/two_bars.md)."""
         p = self.particles
         if state.shape == GIMP:
             return p.vol0
