@@ -113,3 +113,25 @@ def contact_velocity_changes(pts, geo, slot_of, dacc, dt, rigid, dv, want):
                 continue
             for d in range(3):
                 dv[p, d] += dt * w[k] * dacc[s, b, d]
+
+
+@njit(cache=True)
+def near_coupled_nodes(x, node_body, coupled, meets, reach, near):
+    """near[k] = whether FE node k's body is grid-coupled (``coupled[b]``) and the node
+    lies in the box ``reach[o]`` ((n_bodies, 2, 3): low and high corners) of a body o
+    that its body meets on the grid (``meets[b, o]``); one pass over the nodes."""
+    for k in range(x.shape[0]):
+        b = node_body[k]
+        inside = False
+        if coupled[b]:
+            for o in range(meets.shape[1]):
+                if not meets[b, o]:
+                    continue
+                inside = True
+                for d in range(3):
+                    if x[k, d] < reach[o, 0, d] or x[k, d] > reach[o, 1, d]:
+                        inside = False
+                        break
+                if inside:
+                    break
+        near[k] = inside

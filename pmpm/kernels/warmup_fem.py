@@ -169,6 +169,9 @@ def warm_up_fem_grid(pts, geo, block, force, slots, view, exact=False):
     fem_grid.contact_accelerations(slots, rigid, 1e-12, block, dacc)
     fem_grid.contact_velocity_changes(pts, geo, view.slot_of, dacc, 1e-3, rigid,
                                       np.zeros((1, 3)), 0)
+    fem_grid.near_coupled_nodes(np.zeros((1, 3)), np.zeros(1, np.int32), np.ones(nb, np.bool_),
+                                np.zeros((nb, nb), np.bool_), np.zeros((nb, 2, 3)),
+                                np.zeros(1, np.bool_))
 
 
 def _layers(order, width, halo, per_plane):

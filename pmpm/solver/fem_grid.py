@@ -126,13 +126,13 @@ class FemGridNodes(BodyKind):
         (:meth:`near_others`) and their positions held inside the grid box (a node on a
         face may lie a rounding error beyond it; the kernels need its cell). Collective."""
         e = self.elements
-        nodes = np.flatnonzero(self.coupled[e.node_body] & self.near_others())
+        nodes = np.flatnonzero(self.near_others())
         g = self.grid
         x = np.clip(e.x[nodes], g.origin, g.upper - 1e-9 * g.h)
         return nodes, x
 
     def near_others(self):
-        """(FE nodes,) bool: the nodes within NEAR_CELLS cells (and twice the widest
+        """(FE nodes,) bool: the coupled nodes within NEAR_CELLS cells (and twice the widest
         particle's half-spacing) of the box of a body their body meets on the grid (over
         all ranks: the same nodes on any rank count). A node farther than that shares no
         grid node with that body's points, so on the grid it met nobody and took no
@@ -140,7 +140,7 @@ class FemGridNodes(BodyKind):
         reduction; collective."""
         e = self.elements
         if self.meets is None:
-            return np.ones(len(e.x), bool)
+            return self.coupled[e.node_body]
         nb = len(self.coupled)
         boxes = body_boxes(e.x, e.x, e.node_body, nb)
         if self.points is not None:
@@ -154,12 +154,8 @@ class FemGridNodes(BodyKind):
                                                [-wide]]))
         lo, hi = least[:3 * nb].reshape(nb, 3), -least[3 * nb:6 * nb].reshape(nb, 3)
         reach = grown(np.stack([lo, hi], axis=1), NEAR_CELLS * self.grid.h - 2.0 * least[-1])
-        near = np.zeros(len(e.x), bool)
-        for b in np.flatnonzero(self.coupled):
-            mine = e.node_body == b
-            for other in np.flatnonzero(self.meets[b]):
-                box = reach[other]
-                near[mine] |= np.all((e.x[mine] >= box[0]) & (e.x[mine] <= box[1]), axis=1)
+        near = self.work.empty("near", len(e.x), 1, np.bool_)[:, 0]
+        kf.near_coupled_nodes(e.x, e.node_body, self.coupled, self.meets, reach, near)
         return near
 
     def widest_particle(self):
