@@ -165,9 +165,11 @@ CONTACT = {
                      "so curved surfaces meet early and stiffly); `volume`: from the share "
                      "of the node's trilinear hat each body's particle volumes fill, "
                      "inverted to the depth of a flat face (weighs the surfaces at the node, "
-                     "so curved contact converges: docs/validation/hertz.md; it reads a "
-                     "slowly opening flat gap to about 0.002 cells, so a flat face that "
-                     "parts slowly may be touched again); linear and gimp shape functions "
+                     "so curved contact converges: docs/validation/hertz.md; under gimp from "
+                     "the particles' initial volumes, which err towards closed by about the "
+                     "compressive strain and so hold a pressed contact: docs/validation/"
+                     "two_bars.md; a flat face that parts slowly may be touched again); "
+                     "linear and gimp shape functions "
                      "only; `auto` (the default): `volume`, `reach` with bspline"),
     "coupling": Field(choice(COUPLINGS, "coupling"), "surface", doc=COUPLING_DOC),
     "pairs": Field(list_of(mapping(PAIR), 0, "pair"), [],
