@@ -525,9 +525,10 @@ def contact_volumes(pts, volume, geo, slot_of, cvol, want, layers=None):
     """Each body's shape-function-weighted particle volume sum_p S_ip V_p at the contact
     nodes, in cells^3 (``volume``: the particles' volumes, initial under uGIMP:
     ``pmpm.solver.particle_bodies.ParticleBodies.gap_volumes``), for the volume gap
-    (:func:`volume_gap`). With particles that tile their body (uGIMP domains, or hats
-    sampled at the particles) it is the integral of the node's trilinear hat over the
-    body's material. With ``layers`` (a LayerSums over the slots, rows (n_slots,
+    (:func:`volume_gap`). With the hats (current volumes) it samples the integral of the
+    node's trilinear hat over the body's material; under uGIMP (initial volumes) it is
+    the hat's integral over the particles' undeformed domains, counted as often as they
+    overlap, so a compressed body reads a little fuller than it is. With ``layers`` (a LayerSums over the slots, rows (n_slots,
     n_bodies)) the sums are layer-ordered (``pmpm.kernels.layered``)."""
     x, _, _, body, level = pts
     origin, inv_h, lo, strides, marker, half_width = geo
