@@ -74,9 +74,48 @@ def test_contact_defaults_resolve_from_the_matrix(sets, release, gap):
     assert all(pair.release == release for pair in contact.pairs)
 
 
+JC_COPPER = {"model": "johnson_cook", "density": 8.93e-3, "E": 117e3, "nu": 0.35,
+             "A": 157.0, "B": 425.0, "n": 1.0}
+FLUID = {"model": "fluid", "density": 1e-3, "eos": {"type": "linear", "c0": 1500.0}}
+
+
+@pytest.mark.parametrize("sets, materials, cfl", [
+    ([], None, 0.8),                                      # particle bodies, one field
+    (["time.cfl=0.3"], None, 0.3),                        # what a case names is kept
+    (["time.cfl=AUTO"], None, 0.8),
+    (["grid.shape_functions=bspline"], None, 0.8),
+    (["grid.shape_functions=linear"], None, 0.5),        # the hats' crossings
+    (["contact.method=2"], None, 0.5),                    # bodies meet
+    ([], {"steel": JC_COPPER}, 0.8),
+    ([], {"steel": {**JC_COPPER, "eps_fail": 0.9}}, 0.5),  # failure
+    ([], {"steel": {**JC_COPPER, "eps_fail": 0}}, 0.8),    # 0: never fails
+    ([], {"steel": {**JC_COPPER, "bulk_viscosity": {"quadratic": 1.5}}}, 0.5),  # shocks
+    ([], {"steel": {**JC_COPPER, "damage": {"model": "johnson_cook", "d1": 0.54, "d2": 4.89, "d3": -3.03}}}, 0.5),
+    ([], {"steel": FLUID}, 0.5)])                         # not in the matrix at 0.8
+def test_the_courant_number_left_at_auto_comes_from_the_matrix(sets, materials, cfl):
+    """time.cfl auto: 0.8 for particle bodies of solid materials under 27-node shapes
+    without contact, failure or bulk viscosity (every matrix row of that kind keeps its
+    answers there), 0.5 for the rest (docs/validation/defaults.md, "The time step")."""
+    case = validate_case(dict(PLAIN, materials=materials or PLAIN["materials"]),
+                         overrides=sets, check_geometry=False)
+    assert CaseConfig.from_case(case).time.cfl == cfl
+
+
+def test_an_fem_body_takes_the_safe_courant_number():
+    config = load_config(str(ROOT / "tests" / "cases" / "sphere_on_fem_block.yaml"),
+                         ["time.cfl=auto"])
+    assert config.time.cfl == 0.5
+
+
+def test_a_courant_number_that_is_neither_a_number_nor_auto_is_refused():
+    with pytest.raises(CaseError, match=r"time\.cfl: expected a number in \(0, 1\] or auto"):
+        validate_case(PLAIN, overrides=["time.cfl=fast"], check_geometry=False)
+    with pytest.raises(CaseError, match=r"time\.cfl: must be <= 1"):
+        validate_case(PLAIN, overrides=["time.cfl=1.5"], check_geometry=False)
+
+
 def test_defaults_of_grid_and_bodies_come_from_the_schema():
     config = config_of()
-    assert config.time.cfl == TIME["cfl"].default
     assert config.bodies[0].particles_per_cell == BODY.fields["particles_per_cell"].default
     assert dict(config.grid.boundary) == {face: f.default for face, f in BOUNDARY.items()}
     assert config.contact.separation is None and config.contact.pairs == ()

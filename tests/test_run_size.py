@@ -14,8 +14,8 @@ from pmpm.io.summary import read_summary
 from pmpm.solver.bodies import fill_positions
 from pmpm.solver.estimate import estimate, initial_speed, size_problems
 
-LINE = re.compile(r"^pmpm: ([\d,]+) particles; about ([\d,]+) steps \(first time step "
-                  r"\S+\); output about ([\d.]+) (kB|MB) in (\d+) frames? \(.* free\)$", re.M)
+LINE = re.compile(r"^pmpm: ([\d,]+) particles; about ([\d,]+) steps \((?:cfl \S+: first|"
+                  r"fixed) time step \S+\); output about ([\d.]+) (kB|MB) in (\d+) frames? \(.* free\)$", re.M)
 
 
 def bar_size(*sets):

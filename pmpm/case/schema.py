@@ -18,6 +18,7 @@ from .fields import (INVALID, Checked, Custom, Field, Marker, Tagged, at_least, 
 from .materials import MATERIALS
 from .overrides import apply_overrides
 from .params import resolve_params, substitute
+from .timestep import AUTO as AUTO_CFL, CFL_DOC, read_cfl, resolve_step_default
 from .size import check_memory
 from .units import SYSTEMS, check_units
 
@@ -32,11 +33,7 @@ FRICTION = {face: Field(number(at_least(0)), 0.0, "1",
             for face in FACES}
 TIME = {
     "end": Field(number(greater(0)), unit="ms", doc="simulated end time"),
-    "cfl": Field(number(greater(0), at_most(1)), 0.5, "1",
-                 "Courant number: the fraction of the stable time step (seed 001 Eq. 35) "
-                 "that is taken. 0.8 takes 0.63 times the steps and keeps the validation "
-                 "matrix's particle rows, but surface contact with FEM bodies and perforations "
-                 "with failure gain energy there (docs/validation/defaults.md)"),
+    "cfl": Field(Custom(read_cfl, "number in (0, 1], or `auto`"), AUTO_CFL, "1", CFL_DOC),
     "dt_max": Field(number(greater(0)), None, "ms",
                     "upper limit on the time step (none: no limit)"),
     "dt": Field(number(greater(0)), None, "ms",
@@ -410,6 +407,7 @@ def validate_case(raw, case_dir=".", default_title="case", overrides=(),
     check_free_rigid(case, problems)
     problems.raise_if_any()
     resolve_contact_defaults(case)
+    resolve_step_default(case)
     return case
 
 

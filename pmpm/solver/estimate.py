@@ -45,12 +45,14 @@ class RunSize:
     frames: int
     output_bytes: float
     stable_dt: float = math.inf      # at cfl 1, from the same speed
+    cfl: float | None = None         # the Courant number taken; None: a fixed step
 
     def line(self, free_bytes):
         """The line rank 0 prints before the run."""
         free = "" if free_bytes is None else f" ({_size(free_bytes)} free)"
+        step = "fixed" if self.cfl is None else f"cfl {self.cfl:g}: first"
         return (f"pmpm: {self.particles:,} particles; about {_count(self.steps)} steps "
-                f"(first time step {self.first_dt:.3g}); output about "
+                f"({step} time step {self.first_dt:.3g}); output about "
                 f"{_size(self.output_bytes)} in {_frames(self.frames)}{free}")
 
 
@@ -130,7 +132,8 @@ def estimate(config, n_particles, fastest, t0=0.0, first_frame=True, elements=(0
                particle_store(config.time.transfer == "apic").COLUMNS)
                      + n_elements * ELEMENT_CHECKPOINT_BYTES + n_nodes * NODE_CHECKPOINT_BYTES)
            + rows * row_bytes)
-    return RunSize(int(n_particles), dt, float(steps), frames, float(out), stable)
+    return RunSize(int(n_particles), dt, float(steps), frames, float(out), stable,
+                   None if time.dt is not None else float(time.cfl))
 
 
 def size_problems(config, size, free_bytes):
