@@ -26,6 +26,25 @@ def run_case(case, out, ranks=1, sets=(), quiet=True):
         return json.load(f)
 
 
+def provenance(script):
+    """Which code, when, how and where a script measured: the commit (with "with
+    uncommitted changes" where tracked files differ), the UTC date, the command line of
+    ``script`` (its file name under scripts/) and the machine."""
+    import datetime
+    import platform
+
+    def git(*argv):
+        done = subprocess.run(["git", *argv], cwd=ROOT, capture_output=True, text=True)
+        return done.stdout.strip() if done.returncode == 0 else ""
+    commit = git("rev-parse", "--short", "HEAD") or "unknown"
+    if git("status", "--porcelain", "--untracked-files=no"):
+        commit += " with uncommitted changes"
+    return {"commit": commit,
+            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "command": " ".join([f"python scripts/{script}"] + sys.argv[1:]),
+            "machine": f"{platform.machine()} {platform.system()}, {os.cpu_count()} CPUs"}
+
+
 def save_json(path, data):
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
     with open(path, "w", encoding="utf-8") as f:

@@ -27,13 +27,10 @@ Usage: .venv/bin/python scripts/bench.py [--ranks 1 2] [--small] [--only CASE ..
        .venv/bin/python scripts/bench.py --page-only [--page docs/performance.md]
 """
 import argparse
-import datetime
 import os
-import platform
-import subprocess
 import sys
 
-from _common import ROOT, run_case, save_json, write_lines
+from _common import ROOT, provenance, run_case, save_json, write_lines
 import performance_page
 
 CASES = {
@@ -110,22 +107,8 @@ def measure_all(args, json_path):
                 results.append(dict(measure(name, spec["file"], spec["set"], ranks, out),
                                     repeat=repeat))
     add_efficiency(results)
-    save_json(json_path, dict(provenance(), cases=cases, results=results))
+    save_json(json_path, dict(provenance("bench.py"), cases=cases, results=results))
     write_table(os.path.join(args.out, "bench.md"), results)
-
-
-def provenance():
-    """Which code, when, how and where: the header of the performance page."""
-    def git(*argv):
-        done = subprocess.run(["git", *argv], cwd=ROOT, capture_output=True, text=True)
-        return done.stdout.strip() if done.returncode == 0 else ""
-    commit = git("rev-parse", "--short", "HEAD") or "unknown"
-    if git("status", "--porcelain", "--untracked-files=no"):
-        commit += " with uncommitted changes"
-    return {"commit": commit,
-            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-            "command": " ".join(["python scripts/bench.py"] + sys.argv[1:]),
-            "machine": f"{platform.machine()} {platform.system()}, {os.cpu_count()} CPUs"}
 
 
 def measure(name, case, sets, ranks, out):

@@ -494,7 +494,8 @@ def main():
     write_lines(os.path.join(args.out, "ceiling.md"), performance_page.ceiling_table(data),
                 echo=True)
     if args.page:
-        performance_page.write_ceiling(os.path.join(args.out, "ceiling.json"), args.page)
+        performance_page.write_section("ceiling", os.path.join(args.out, "ceiling.json"),
+                                       args.page)
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from _common import ENV, PYTHON, ROOT, save_json, write_lines
+from _common import ENV, PYTHON, ROOT, provenance, save_json, write_lines
 
 from pmpm.post import read_frame, taylor_shape
 
@@ -54,7 +54,8 @@ def main(argv=None):
                   f"L {row['L']:.2f}, D {row['D']:.2f}", flush=True)
             runs.append(row)
     rows = medians(runs)
-    result = {"cell": args.cell, "t_end": args.end, "repeat": args.repeat, "rows": rows,
+    result = {**provenance("peer_side_by_side.py"), "cell": args.cell, "t_end": args.end,
+              "repeat": args.repeat, "rows": rows,
               "ratios": ratios(rows), "runs": runs, "experiment": EXPERIMENT}
     dest = os.path.join(ROOT, "results", "peer_side_by_side")
     save_json(os.path.join(dest, f"{args.name}.json"), result)

@@ -43,7 +43,7 @@ import sys
 import h5py
 import numpy as np
 
-from _common import ROOT, run_case, write_lines
+from _common import ROOT, provenance, run_case, write_lines
 
 sys.path.insert(0, ROOT)
 from pmpm.comm.slabs import balanced_bounds  # noqa: E402
@@ -271,7 +271,9 @@ def main(argv=None):
     write_lines(os.path.join(args.out, f"{name}.md"), lines, echo=True)
     with open(os.path.join(args.out, f"{name}.json"), "w",
               encoding="utf-8") as f:
-        json.dump({"agree": agree, "comm": comm, "t_p": t_p, "t_0": t_0, "projection": projection,
+        json.dump({**provenance("scaling.py"), "label": label, "case": case, "sets": sets,
+                   "shape": args.shape or "the case file's", "agree": agree, "comm": comm,
+                   "t_p": t_p, "t_0": t_0, "projection": projection,
                    "largest_ranks": largest, "check": check}, f, indent=2)
     return 0 if ok else 1
 
