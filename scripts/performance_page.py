@@ -338,7 +338,8 @@ def scaling_section(runs, source):
         check = data.get("check")
         checked = "-" if not check else (f"{100 * check['modelled']:.1f} % / "
                                          f"{100 * check['measured']:.1f} %")
-        lines.append(f"| {data.get('label', '?')} | `{data.get('commit', 'unknown')}`, "
+        lines.append(f"| {data.get('label', '?')}, {data.get('shape', '?')} | "
+                     f"`{data.get('commit', 'unknown')}`, "
                      f"{data.get('date', '?')} | {max(data['agree'].values()):.0e} | "
                      + " | ".join(cells) + f" | {data['largest_ranks']} ranks | {checked} |")
     return lines

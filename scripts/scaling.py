@@ -188,7 +188,8 @@ def main(argv=None):
     scale2 = (h_meas / h_target) ** 2
     widest = max(r for r in runs if r > 1)
     s_w = runs[widest][1]
-    shape = SHAPE_CODES[args.shape or shape_functions(runs[1][0])]
+    shape_name = args.shape or shape_functions(runs[1][0])
+    shape = SHAPE_CODES[shape_name]
     halo = HALO[shape]
     min_width = 1 + 2 * halo
     positions = first_positions(runs[1][0])
@@ -272,7 +273,7 @@ def main(argv=None):
     with open(os.path.join(args.out, f"{name}.json"), "w",
               encoding="utf-8") as f:
         json.dump({**provenance("scaling.py"), "label": label, "case": case, "sets": sets,
-                   "shape": args.shape or "the case file's", "agree": agree, "comm": comm,
+                   "shape": shape_name, "agree": agree, "comm": comm,
                    "t_p": t_p, "t_0": t_0, "projection": projection,
                    "largest_ranks": largest, "check": check}, f, indent=2)
     return 0 if ok else 1

@@ -67,7 +67,7 @@ PEER = {"cell": 0.76, "t_end": 0.08, "repeat": 3, "commit": "abc1234", "date": "
                    "step_loop_f90_default_over_pmpm_default": 1.05,
                    "rate_pmpm_default_over_f90_default": 1.1,
                    "rate_pmpm_default_over_f90_gimp": 2.8}}
-SCALING = {"label": "Taylor bar, 0.19 mm", "commit": "abc1234", "date": "2026-12-06",
+SCALING = {"label": "Taylor bar, 0.19 mm", "shape": "gimp", "commit": "abc1234", "date": "2026-12-06",
            "agree": {"2": 1e-15, "4": 3e-15}, "largest_ranks": 44,
            "projection": {"16": {"axis": "z", "imbalance": 1.075, "efficiency": 0.93},
                           "64": None, "256": None},
@@ -87,7 +87,7 @@ def test_the_side_by_side_and_the_projection_go_in_their_own_sections(tmp_path):
     assert text.startswith("# Performance\n\nbefore\n")
     assert "| pmpm gimp (default) | 21172 | 634 | 4.0 | 3.0 | 4.50 |" in text
     assert "F90 default / pmpm default, whole process: 0.93" in text
-    assert "| Taylor bar, 0.19 mm | `abc1234`, 2026-12-06 | 3e-15 | 93.0 % (z, imbalance " \
+    assert "| Taylor bar, 0.19 mm, gimp | `abc1234`, 2026-12-06 | 3e-15 | 93.0 % (z, imbalance " \
            "1.07) | not possible | not possible | 44 ranks | 98.0 % / 91.0 % |" in text
     SCALING["projection"]["16"]["efficiency"] = 0.5
     (folder / "scaling_taylor_gimp.json").write_text(json.dumps(SCALING))
