@@ -342,7 +342,7 @@ def scaling_section(runs, source):
                      f"`{data.get('commit', 'unknown')}`, "
                      f"{data.get('date', '?')} | {max(data['agree'].values()):.0e} | "
                      + " | ".join(cells) + f" | {data['largest_ranks']} ranks | {checked} |")
-    return lines
+    return lines + [""]
 
 
 def load_scaling(path):

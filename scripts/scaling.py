@@ -171,7 +171,6 @@ def main(argv=None):
     case, sets, h_meas, h_target, label, fewer = CASES[args.case]
     if args.shape:
         sets = sets + [f"grid.shape_functions={args.shape}"]
-        label += f", {args.shape}"
     runs = {}
     for ranks in args.ranks:
         out = os.path.join(args.out, f"{args.case}_{args.shape or 'file'}_r{ranks}")
@@ -240,7 +239,7 @@ def main(argv=None):
             2 * model(t_p, n_meas, 2, imb2, c2, a_l, b_l, t_0))
         measured = s2["particle_steps_per_s"] / (2 * one["particle_steps_per_s"])
         check = {"modelled": modelled, "measured": measured}
-    lines = [f"# Scaling: {label}", "",
+    lines = [f"# Scaling: {label}, {shape_name}", "",
              f"Measured at {h_meas} mm on {', '.join(map(str, runs))} ranks "
              f"({n_meas:,} particles, `{case}` with {' '.join(sets)}); projected to "
              f"{h_target} mm ({n_target:,.0f} particles).", "",
