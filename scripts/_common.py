@@ -28,7 +28,7 @@ def run_case(case, out, ranks=1, sets=(), quiet=True):
 
 def provenance(script):
     """Which code, when, how and where a script measured: the commit (with "with
-    uncommitted changes" where tracked files differ), the UTC date, the command line of
+    uncommitted changes" where pmpm/ differs from it), the UTC date, the command line of
     ``script`` (its file name under scripts/) and the machine."""
     import datetime
     import platform
@@ -37,7 +37,7 @@ def provenance(script):
         done = subprocess.run(["git", *argv], cwd=ROOT, capture_output=True, text=True)
         return done.stdout.strip() if done.returncode == 0 else ""
     commit = git("rev-parse", "--short", "HEAD") or "unknown"
-    if git("status", "--porcelain", "--untracked-files=no"):
+    if git("status", "--porcelain", "--untracked-files=no", "--", "pmpm"):
         commit += " with uncommitted changes"
     return {"commit": commit,
             "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),

@@ -98,3 +98,14 @@ def test_the_side_by_side_and_the_projection_go_in_their_own_sections(tmp_path):
     assert again.count(performance_page.start_marker("peer")) == 1
     kept = performance_page.kept_section("peer", str(page))
     assert kept[1] == performance_page.start_marker("peer")
+
+
+def test_the_readmes_paragraph_names_both_codes_and_the_projection():
+    scaling = dict(SCALING, projection={"16": {"axis": "z", "imbalance": 1.075,
+                                               "efficiency": 0.93}})
+    lines = performance_page.readme_summary(PEER, [scaling])
+    assert lines[0] == performance_page.SUMMARY_START
+    assert lines[-1] == performance_page.SUMMARY_END
+    text = " ".join(lines)
+    assert "pmpm 4.0 s in 634 steps, MPM3D-F90 4.0 s in 634" in text
+    assert "Taylor bar, 0.19 mm, gimp: 93 %" in text
