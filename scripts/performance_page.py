@@ -301,18 +301,23 @@ def ceiling_section(data, source):
         + ceiling_table(data)
 
 
-def peer_section(data, source):
-    """The side by side with MPM3D-F90 (scripts/peer_side_by_side.py's json)."""
+def peer_section(sittings, source):
+    """The side by side with MPM3D-F90 (scripts/peer_side_by_side.py's jsons, one per
+    cell)."""
     from peer_side_by_side import table
-    return ["## Side by side with MPM3D-F90", "",
-            f"Measured at commit `{data.get('commit', 'unknown')}` on "
-            f"{data.get('date', 'an unknown date')} with `{data.get('command', 'python scripts/peer_side_by_side.py')}` "
-            f"({source}): the seed group's Fortran code built with -O3 -march=native, its "
-            "Taylor input adapted to `runs/taylor_bar.yaml`, each code at its own defaults "
-            "(pmpm: gimp, `time.cfl: auto`; MPM3D-F90: the hats, MUSL, `dtscale` 0.8) and in "
-            "the other's shapes; one process on one core each. How it was built and adapted: "
-            f"[performance notes]({NOTES}#side-by-side-with-mpm3d-f90-issue-25).", ""] \
-        + table(data) + [""]
+    lines = ["## Side by side with MPM3D-F90", "",
+             f"`scripts/peer_side_by_side.py` ({source}): the seed group's Fortran code built "
+             "with -O3 -march=native, its Taylor input adapted to `runs/taylor_bar.yaml`, each "
+             "code at its own defaults (pmpm: gimp, `time.cfl: auto`; MPM3D-F90: the hats, "
+             "MUSL, `dtscale` 0.8) and in the other's shapes; one process on one core each. "
+             "How it was built and adapted: "
+             f"[performance notes]({NOTES}#side-by-side-with-mpm3d-f90-issue-25).", ""]
+    for data in sittings:
+        lines += [f"Measured at commit `{data.get('commit', 'unknown')}` on "
+                  f"{data.get('date', 'an unknown date')} with "
+                  f"`{data.get('command', 'python scripts/peer_side_by_side.py')}`:", ""] \
+            + table(data) + [""]
+    return lines
 
 
 def scaling_section(runs, source):
@@ -348,10 +353,11 @@ def scaling_section(runs, source):
     return lines + [""]
 
 
-def load_scaling(path):
-    """The scaling jsons of a folder (``path``), in name order, or of one file."""
+def load_jsons(path, prefix):
+    """The jsons of folder ``path`` whose names start with ``prefix``, in name order
+    (None if there are none), or the one file ``path``."""
     if os.path.isdir(path):
-        names = sorted(n for n in os.listdir(path) if n.startswith("scaling_")
+        names = sorted(n for n in os.listdir(path) if n.startswith(prefix)
                        and n.endswith(".json"))
         return [load_json(os.path.join(path, n)) for n in names] or None
     return [load_json(path)]
@@ -367,11 +373,12 @@ SECTIONS = {
                        os.path.join(ROOT, "results", "bench", "ceiling.json"),
                        lambda path: ceiling_section(load_json(path), _source(path))),
     "peer": Section("the side by side with MPM3D-F90",
-                    os.path.join(ROOT, "results", "peer_side_by_side", "peer.json"),
-                    lambda path: peer_section(load_json(path), _source(path))),
+                    os.path.join(ROOT, "results", "peer_side_by_side"),
+                    lambda path: peer_section(load_jsons(path, "peer"), _source(path))),
     "scaling": Section("the projection to many ranks",
                        os.path.join(ROOT, "results", "scaling"),
-                       lambda path: scaling_section(load_scaling(path), _source(path))),
+                       lambda path: scaling_section(load_jsons(path, "scaling_"),
+                                                    _source(path))),
 }
 
 
@@ -408,7 +415,8 @@ def write_readme_summary(readme_path):
     with open(readme_path, encoding="utf-8") as f:
         text = f.read()
     start, end = text.index(SUMMARY_START), text.index(SUMMARY_END) + len(SUMMARY_END)
-    summary = "\n".join(readme_summary(load_json(peer), load_scaling(folder)))
+    summary = "\n".join(readme_summary(load_jsons(peer, "peer")[0],
+                                        load_jsons(folder, "scaling_")))
     with open(readme_path, "w", encoding="utf-8") as f:
         f.write(text[:start] + summary + text[end:])
 
@@ -450,9 +458,9 @@ def kept_section(name, page_path):
 
 
 def present(path):
-    """Whether a section's results are here (a file, or a folder with scaling jsons)."""
+    """Whether a section's results are here (a file, or a folder with jsons)."""
     if os.path.isdir(path):
-        return load_scaling(path) is not None
+        return any(n.endswith(".json") for n in os.listdir(path))
     return os.path.exists(path)
 
 
