@@ -103,9 +103,9 @@ def test_the_side_by_side_and_the_projection_go_in_their_own_sections(tmp_path):
 def test_the_readmes_paragraph_names_both_codes_and_the_projection():
     scaling = dict(SCALING, projection={"16": {"axis": "z", "imbalance": 1.075,
                                                "efficiency": 0.93}})
-    lines = performance_page.readme_summary(PEER, [scaling])
+    lines = performance_page.readme_summary([PEER], [scaling])
     assert lines[0] == performance_page.SUMMARY_START
     assert lines[-1] == performance_page.SUMMARY_END
     text = " ".join(lines)
-    assert "pmpm 4.0 s in 634 steps, MPM3D-F90 4.0 s in 634" in text
+    assert "at 0.76 mm to 0.08 ms pmpm 4.0 s in 634 steps against 4.0 s in 634" in text
     assert "Taylor bar, 0.19 mm, gimp: 93 %" in text
