@@ -86,6 +86,7 @@ FLUID = {"model": "fluid", "density": 1e-3, "eos": {"type": "linear", "c0": 1500
     (["grid.shape_functions=bspline"], None, 0.8),
     (["grid.shape_functions=linear"], None, 0.5),        # the hats' crossings
     (["contact.method=2"], None, 0.5),                    # bodies meet
+    (["grid.friction.z-=0.2", "grid.boundary.z-=slip"], None, 0.5),   # a face rubs
     ([], {"steel": JC_COPPER}, 0.8),
     ([], {"steel": {**JC_COPPER, "eps_fail": 0.9}}, 0.5),  # failure
     ([], {"steel": {**JC_COPPER, "eps_fail": 0}}, 0.8),    # 0: never fails
@@ -99,6 +100,12 @@ def test_the_courant_number_left_at_auto_comes_from_the_matrix(sets, materials, 
     case = validate_case(dict(PLAIN, materials=materials or PLAIN["materials"]),
                          overrides=sets, check_geometry=False)
     assert CaseConfig.from_case(case).time.cfl == cfl
+
+
+def test_one_body_under_a_contact_method_meets_nothing_and_takes_the_quick_step():
+    case = validate_case(dict(PLAIN, bodies=PLAIN["bodies"][:1]),
+                         overrides=["contact.method=2"], check_geometry=False)
+    assert CaseConfig.from_case(case).time.cfl == 0.8
 
 
 def test_an_fem_body_takes_the_safe_courant_number():

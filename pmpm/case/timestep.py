@@ -23,8 +23,8 @@ QUICK_SHAPES = ("gimp", "bspline")
 QUICK_MODELS = ("elastic", "neo_hookean", "j2_linear", "j2_power", "johnson_cook")
 CFL_DOC = ("Courant number: the fraction of the stable time step (seed 001 Eq. 35) that "
            "is taken, or `auto` (the default): 0.8 for particle bodies of solid materials "
-           "under gimp or bspline shapes without contact, failure (eps_fail, damage) or "
-           "bulk viscosity, "
+           "under gimp or bspline shapes without contact (between bodies or on a frictional "
+           "grid face), failure (eps_fail, damage) or bulk viscosity, "
            "where the validation matrix keeps every answer with 0.63 times the steps of "
            "0.5; 0.5 for everything else (the hats, contact between bodies, FEM bodies, "
            "failure and shocks gain energy or drift at 0.8: docs/validation/defaults.md). The start "
@@ -51,15 +51,18 @@ def resolve_step_default(case):
 
 def takes_the_quick_step(case):
     """Whether the case has particle bodies alone, 27-node shapes, one velocity field
-    (no grid contact) and materials that neither fail nor carry bulk viscosity."""
+    (no grid contact), no friction on the grid's faces and materials that neither fail
+    nor carry bulk viscosity."""
     bodies, contact = case.get("bodies"), case.get("contact")
     materials, grid = case.get("materials"), case.get("grid")
     if not isinstance(grid, dict) or grid.get("shape_functions") not in QUICK_SHAPES:
         return False
+    if any(mu for mu in (grid.get("friction") or {}).values() if isinstance(mu, float)):
+        return False                        # a face that rubs, as bodies that meet
     if not isinstance(bodies, list) or not isinstance(materials, dict):
         return False
-    if not isinstance(contact, dict) or contact.get("method"):
-        return False
+    if not isinstance(contact, dict) or (contact.get("method") and len(bodies) > 1):
+        return False                        # bodies meet (one body meets nothing)
     if any(not isinstance(b, dict) or b.get("method", "particles") != "particles"
            for b in bodies):
         return False
