@@ -19,7 +19,8 @@ QUICK_CFL = 0.8
 SAFE_CFL = 0.5
 #: the shape functions that keep the energy at 0.8
 QUICK_SHAPES = ("gimp", "bspline")
-#: material models the matrix runs at 0.8 (the fluid and rigid models are not there)
+#: the solid models (the matrix's rows at 0.8 are elastic and Johnson-Cook, whose stress
+#: update the other solids share; no row runs the fluid or the rigid model there)
 QUICK_MODELS = ("elastic", "neo_hookean", "j2_linear", "j2_power", "johnson_cook")
 CFL_DOC = ("Courant number: the fraction of the stable time step (seed 001 Eq. 35) that "
            "is taken, or `auto` (the default): 0.8 for particle bodies of solid materials "
@@ -57,7 +58,8 @@ def takes_the_quick_step(case):
     materials, grid = case.get("materials"), case.get("grid")
     if not isinstance(grid, dict) or grid.get("shape_functions") not in QUICK_SHAPES:
         return False
-    if any(mu for mu in (grid.get("friction") or {}).values() if isinstance(mu, float)):
+    if any(isinstance(mu, (int, float)) and mu > 0
+           for mu in (grid.get("friction") or {}).values()):
         return False                        # a face that rubs, as bodies that meet
     if not isinstance(bodies, list) or not isinstance(materials, dict):
         return False
