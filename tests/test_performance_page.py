@@ -109,3 +109,13 @@ def test_the_readmes_paragraph_names_both_codes_and_the_projection():
     text = " ".join(lines)
     assert "at 0.76 mm to 0.08 ms pmpm 4.0 s in 634 steps against 4.0 s in 634" in text
     assert "Taylor bar, 0.19 mm, gimp: 93 %" in text
+
+
+def test_a_section_whose_marker_names_another_file_is_replaced_not_added(tmp_path):
+    peer, page = tmp_path / "peer.json", tmp_path / "performance.md"
+    peer.write_text(json.dumps(PEER))
+    old = performance_page.start_marker("peer").replace("peer_side_by_side", "peer.json")
+    page.write_text(f"# Performance\n\n{old}\nstale\n{performance_page.end_marker('peer')}\n")
+    performance_page.write_section("peer", str(peer), str(page))
+    text = page.read_text()
+    assert "stale" not in text and text.count("## Side by side with MPM3D-F90") == 1
