@@ -117,6 +117,45 @@ def test_every_element_converted_leaves_particles_only():
     assert np.abs(after - before).max() < 1e-13 * np.abs(before).max()
 
 
+def converted_elements(sim):
+    """The element ids the particles come from (no particle of its own in the case)."""
+    return set(np.unique(sim.particles.id // ID_STRIDE).tolist())
+
+
+def test_an_element_that_would_invert_converts_keeping_mass_and_momentum():
+    """Seed 004: an element converts whenever it would invert, whatever its strain (here
+    none: only eps_p 0.9 is asked). One corner node of an element is thrown through its
+    opposite corner: exactly the elements whose volume went to 0 or below convert, mass
+    and momentum unchanged to round-off."""
+    sim = simulation(SPIN)
+    fem = sim.elements
+    e = int(np.argmin(fem.centroids()[:, 2]))
+    corner, opposite = fem.hexes[e, 0], fem.hexes[e, 6]
+    fem.x[corner] = 2 * fem.x[opposite] - fem.x[corner]
+    inverted = set(fem.element_id[fem.volumes() <= 0].tolist())
+    assert int(fem.element_id[e]) in inverted and fem.state.eps_p.max() < 0.9
+    before = totals(sim)
+    assert sim.conversion.transfer() == len(inverted)
+    assert converted_elements(sim) == inverted
+    after = totals(sim)
+    assert abs(after[0] - before[0]) < 1e-14 * before[0]
+    assert np.abs(after[1:] - before[1:]).max() < 1e-13 * np.abs(before[1:]).max()
+
+
+@pytest.mark.parametrize("failed", [True, False])
+def test_an_element_whose_material_failed_converts_unless_told_not_to(failed):
+    """``convert.failed`` (on by default): an element whose damage reached 1 (its
+    material's eps_fail, or its damage model) converts though its plastic strain is
+    below convert.eps_p; with ``failed: false`` it stays an element."""
+    sim = simulation(SPIN + ([] if failed else ["bodies[0].fem.convert.failed=false"]))
+    fem = sim.elements
+    chosen = fem.element_id[[3, 17, 40]]
+    fem.state.damage[[3, 17, 40]] = 1.0
+    fem.state.damage[[5, 6]] = 0.999
+    assert sim.conversion.transfer() == (3 if failed else 0)
+    assert converted_elements(sim) == (set(chosen.tolist()) if failed else set())
+
+
 def run(sim, end, every=None):
     while sim.time < end - 1e-12:
         dt = min(0.5 * sim.grid.h / sim.fastest_speed(), end - sim.time)

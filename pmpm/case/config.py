@@ -265,6 +265,7 @@ class ConvertConfig:
     eps_p: float | None
     volume_ratio: float | None
     step_ratio: float | None
+    failed: bool
     particles_per_direction: int
 
 

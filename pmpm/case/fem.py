@@ -7,8 +7,8 @@ import os
 import numpy as np
 
 from .errors import join, unknown_name
-from .fields import (INVALID, OMIT, Field, at_least, at_most, choice, defaults_of, greater,
-                     has_invalid, integer, list_of, mapping, number, text, valid, vector)
+from .fields import (INVALID, OMIT, Field, at_least, at_most, boolean, choice, defaults_of,
+                     greater, has_invalid, integer, list_of, mapping, number, text, valid, vector)
 from .hexmesh import (InvertedElementError, MeshDefectError, MixedMeshError, box_counts,
                       hex_mesh, ogive_counts, prism_divisions, read_node_sets)
 from .mesh import MeshReadError
@@ -55,6 +55,13 @@ CONVERT = {
                         "keep; an element finer than this fraction of the cell converts "
                         "after the first step (a warning counts them). Left out: not on "
                         "the step; the oblique perforation uses 0.2"),
+    "failed": Field(boolean(), True,
+                    doc="an element converts when its material has failed (damage 1: "
+                        "eps_p reached the material's eps_fail, or its damage model's D "
+                        "reached 1); as particles the failed material carries no deviator, "
+                        "as the particles of a particle body do, where as an element it "
+                        "would be crushed and sheared until it inverts (false: a failed "
+                        "element stays an element)"),
     "particles_per_direction": Field(integer(at_least(1), at_most(MAX_CONVERT_DIVISIONS)), 2,
                                      "1", "an element becomes n^3 particles at the centres "
                                           "of its n^3 sub-cells (seed 004: 2, 8 particles)"),

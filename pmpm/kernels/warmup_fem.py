@@ -38,9 +38,9 @@ def warm_up_elements(mat, bodies, exact=False):
     element_volumes(x, hexes, vol)
     boundary_volumes(x, hexes, np.empty(1))  # the conversion check's (FemBodies.volumes)
     nb, one = len(bodies.rigid), np.ones(1)
-    elements_to_convert(body, one, one, one, one, np.zeros(nb, np.int64), one.repeat(nb),
-                        one.repeat(nb), 0.0, one.repeat(nb), one.repeat(nb),
-                        np.empty(1, np.bool_))
+    elements_to_convert(body, one, one, one, one, one, np.zeros(nb, np.int64),
+                        one.repeat(nb), one.repeat(nb), one.repeat(nb), 0.0, one.repeat(nb),
+                        one.repeat(nb), np.empty(1, np.bool_))
     rho0 = np.ascontiguousarray(bodies.params[:, layout.RHO0])
     fe.lumped_masses(hexes, vol, bodies.params[body, layout.RHO0], mass)
     kind, coefficient = np.zeros(1, np.int64), np.full(1, 0.1)

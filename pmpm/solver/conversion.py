@@ -7,7 +7,8 @@ reaches ``convert.eps_p``, when its volume falls to ``convert.volume_ratio`` of 
 initial volume, when its stable step (as the last force pass took it: its shape, its
 current wave speed and viscosities) falls to ``convert.step_ratio`` of the background
 cell's step (:func:`cell_rates`: the step at rest of an undistorted cube of the body's
-material and element one coarse cell wide), or whenever it would invert (volume at most
+material and element one coarse cell wide), when its material has failed (damage 1;
+``convert.failed``, on unless set false), or whenever it would invert (volume at most
 0):
 
 * the particles sit at the centres of the element's n^3 sub-cells in its natural
@@ -92,6 +93,7 @@ class ConversionRules:
         self.eps_p = np.full(nb, np.inf)
         self.volume_ratio = np.zeros(nb)
         self.step_ratio = np.zeros(nb)
+        self.failed = np.zeros(nb)           # 1: a failed element (damage 1) converts
         #: time.dt where the step is fixed, else None: an element whose stable step
         #: falls below it converts too (Conversion.floor_rates)
         self.fixed_dt = config.time.dt
@@ -103,6 +105,7 @@ class ConversionRules:
             self.eps_p[b] = np.inf if convert.eps_p is None else convert.eps_p
             self.volume_ratio[b] = convert.volume_ratio or 0.0
             self.step_ratio[b] = convert.step_ratio or 0.0
+            self.failed[b] = float(convert.failed)
 
     @property
     def active(self):
@@ -232,18 +235,18 @@ class Conversion(Transfer):
         fem = self.elements
         if not fem.n_elements:
             return np.zeros(0, bool)
-        return self.choose(fem.body, fem.state.eps_p, fem.volumes(), fem.vol0,
-                           fem.step_rates(), ROUND_OFF)
+        return self.choose(fem.body, fem.state.eps_p, fem.state.damage, fem.volumes(),
+                           fem.vol0, fem.step_rates(), ROUND_OFF)
 
-    def choose(self, b, eps_p, volumes, vol0, rates, round_off, floors=None):
+    def choose(self, b, eps_p, damage, volumes, vol0, rates, round_off, floors=None):
         """The criteria on elements of bodies ``b`` (pmpm.fem.criteria); ``floors``:
         per body the stable rate at which an element converts (default
         :attr:`floor_rates`; 0: none)."""
         r = self.rules
         floors = self.floor_rates if floors is None else floors
         out = np.empty(len(b), np.bool_)
-        elements_to_convert(np.ascontiguousarray(b), eps_p, volumes, vol0, rates,
-                            r.divisions, r.eps_p, r.volume_ratio, round_off,
+        elements_to_convert(np.ascontiguousarray(b), eps_p, damage, volumes, vol0, rates,
+                            r.divisions, r.eps_p, r.failed, r.volume_ratio, round_off,
                             (floors > 0).astype(np.float64), floors, out)
         return out
 
@@ -253,10 +256,10 @@ class Conversion(Transfer):
         rate over the ratio; none of a body that does not convert on the step or has no
         wave speed (a rigid one). The step criterion alone, for the warning at the start
         (at rest): the other criteria cannot hold (a plastic strain of minus infinity, a
-        volume ratio of 1 against a bound of minus infinity)."""
+        volume ratio of 1 against a bound of minus infinity, no damage)."""
         ones = np.ones(len(b))
         cell_floor = floor_rates(self.rules, self.cell_rates, fixed=False)
-        return self.choose(b, np.full(len(b), -np.inf), ones, ones,
+        return self.choose(b, np.full(len(b), -np.inf), np.zeros(len(b)), ones, ones,
                            np.ascontiguousarray(rates, np.float64), -np.inf, cell_floor)
 
     def particles_of(self, converted):
