@@ -1,6 +1,7 @@
 """What ``--force`` may replace in an output directory: only the files a pmpm run writes.
 
 A run writes ``particles.h5``, ``particles.xdmf``, ``history.csv``, ``forces.csv``, ``summary.json``,
+with FEM bodies ``elements.h5``, ``elements.xdmf`` and ``bodies.xdmf``,
 ``checkpoint_NNNNNN.h5`` and ``probe_NAME.csv`` (``output.probes``), and ``python -m
 pmpm.post`` adds ``plot_*.png``; one stopped half-way may also leave their temporary files
 (``NAME.tmp.PID`` from an atomic write, ``checkpoint_NNNNNN.h5.tmp``). Anything else in
@@ -11,7 +12,7 @@ import os
 import re
 
 OUTPUT_FILES = ("particles.h5", "particles.xdmf", "history.csv", "summary.json",
-                "elements.h5", "elements.xdmf", "forces.csv")
+                "elements.h5", "elements.xdmf", "bodies.xdmf", "forces.csv")
 _CHECKPOINT = re.compile(r"^checkpoint_\d+\.h5(\.tmp)?$")
 _DERIVED = re.compile(r"^(probe_[A-Za-z0-9_-]+\.csv(\.tmp\.\d+)?|plot_[A-Za-z0-9_.-]+\.png)$")
 _TEMPORARY = re.compile(

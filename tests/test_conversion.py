@@ -208,3 +208,26 @@ def test_the_taylor_bars_foot_converts_and_the_outputs_and_a_restart_follow(tmp_
         last = f["frames"][sorted(f["frames"])[-1]]
         assert len(last["x"]) == bar["n_particles"] == 8 * (n_elements - bar["n_elements"])
     assert "/hexes" in (whole / "elements.xdmf").read_text()
+    blocks = bodies_xdmf_blocks(whole)
+    assert len(blocks) == 9 and blocks[0] == ["elements"] and blocks[-1] == ["bar", "elements"]
+
+
+def bodies_xdmf_blocks(out):
+    """The block names of each frame of ``out/bodies.xdmf``, after checking that every
+    HDF DataItem names a dataset of particles.h5 or elements.h5 with its shape."""
+    from xml.etree import ElementTree
+
+    import h5py
+    root = ElementTree.parse(out / "bodies.xdmf").getroot()
+    files = {name: h5py.File(out / name, "r") for name in ("particles.h5", "elements.h5")}
+    try:
+        for item in root.iter("DataItem"):
+            if item.get("Format") == "HDF":
+                name, path = item.text.strip().split(":")
+                dims = tuple(int(d) for d in item.get("Dimensions").split())
+                assert files[name][path].shape == dims, path
+    finally:
+        for f in files.values():
+            f.close()
+    frames = root.find("Domain/Grid").findall("Grid")
+    return [[grid.get("Name") for grid in frame.findall("Grid")] for frame in frames]

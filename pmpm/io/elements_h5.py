@@ -112,6 +112,16 @@ class ElementWriter:
         self.write_mesh()
         self.frames = self.file.create_group("frames")
 
+    @property
+    def h5_name(self):
+        """The file's bare name, as the XDMF documents refer to it."""
+        return os.path.basename(self.path)
+
+    @property
+    def real_dtype(self):
+        """The dtype string of the floating-point datasets (output.precision)."""
+        return np.dtype(PRECISIONS[self.precision]).str
+
     def write_mesh(self):
         """/mesh: the connectivity and bodies of the elements as they are now."""
         nodes, elements = self.elements.frame()
@@ -160,9 +170,9 @@ class ElementWriter:
         self.file.flush()
         self.written.append((group.name, time, *sizes))
         if self.comm.rank == 0:
-            write_elements_xdmf(os.path.splitext(self.path)[0] + ".xdmf",
-                                os.path.basename(self.path), self.written, self.n_nodes,
-                                self.n_elements, np.dtype(PRECISIONS[self.precision]).str)
+            write_elements_xdmf(os.path.splitext(self.path)[0] + ".xdmf", self.h5_name,
+                                self.written, self.n_nodes, self.n_elements,
+                                self.real_dtype)
 
     def close(self):
         if self.file:

@@ -26,11 +26,12 @@ def write_elements_xdmf(path, h5_name, frames, n_nodes, n_elements, real="<f8"):
     atomic_write_text(path, text)
 
 
-def _grid(h5, group, time, n, m, own_mesh=False, real="<f8"):
+def _grid(h5, group, time, n, m, own_mesh=False, real="<f8", name=None):
     pad = "      "
     ref = f"{h5}:{group}"
     hexes = f"{ref}/hexes" if own_mesh else f"{h5}:/mesh/hexes"
-    parts = [f'   <Grid Name={quoteattr(group.rsplit("/", 1)[-1])} GridType="Uniform">\n',
+    name = group.rsplit("/", 1)[-1] if name is None else name
+    parts = [f'   <Grid Name={quoteattr(name)} GridType="Uniform">\n',
              f'    <Time Value="{float(time)!r}"/>\n',
              f'    <Topology TopologyType="Hexahedron" NumberOfElements="{m}" '
              f'NodesPerElement="8">\n',
@@ -47,6 +48,13 @@ def _grid(h5, group, time, n, m, own_mesh=False, real="<f8"):
     parts += [_attribute(name, "Scalar", "Cell", _data_item(f"{ref}/{name}", (m,), real, pad))
               for name in CELL_SCALARS]
     return "".join(parts) + "   </Grid>\n"
+
+
+def element_grid(h5_name, frame, n_nodes, n_elements, real="<f8", name="elements"):
+    """The Uniform Hexahedron grid of one frame, ``frame`` = (group path, time, nodes,
+    elements) as :func:`write_elements_xdmf` takes it, named ``name``."""
+    group, time, n, m = frame
+    return _grid(h5_name, group, time, n, m, (n, m) != (n_nodes, n_elements), real, name)
 
 
 def _attribute(name, kind, center, body):

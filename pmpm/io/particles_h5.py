@@ -171,6 +171,11 @@ class ParticleWriter:
         return len(self._frames)
 
     @property
+    def h5_name(self):
+        """The file's bare name, as the XDMF documents refer to it."""
+        return os.path.basename(self.path)
+
+    @property
     def frames(self):
         """Per-frame records ``{group, time, n, columns, topology, body_counts}`` as given
         to the XDMF (``body_counts`` None for a frame written rank after rank)."""
@@ -289,8 +294,7 @@ class ParticleWriter:
         """Rewrite the XDMF (rank 0), building the elements of the frames not yet in it."""
         if not (self.xdmf and self.comm.rank == 0):
             return
-        h5_name = os.path.basename(self.path)
-        self._texts += [frame_text(h5_name, frame, self.body_names)
+        self._texts += [frame_text(self.h5_name, frame, self.body_names)
                         for frame in self._frames[len(self._texts):]]
         atomic_write_text(self.xdmf_path, xdmf_document(self._texts))
 

@@ -167,28 +167,41 @@ def body_name(names, index):
     return str(names[index]) if index < len(names) else f"body_{index}"
 
 
-def _blocks(h5_name, frame, names, indent):
-    """A frame as a Spatial collection (a multiblock in ParaView) of one Uniform grid per
-    body with particles, named after the body, over its range of rows (body-major)."""
-    name = frame["group"].rstrip("/").rsplit("/", 1)[-1]
+def body_grids(h5_name, frame, names, indent):
+    """The Uniform grids of a frame's bodies with particles, each named after its body,
+    over its range of rows (body-major); "" for a frame of no particles, and a frame
+    without ``body_counts`` as one grid (with its time)."""
+    if int(frame["n"]) == 0:
+        return ""
+    if frame.get("body_counts") is None:
+        return _grid(h5_name, frame, indent)
     counts = [int(c) for c in frame["body_counts"]]
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int)
-    grids = "".join(_grid(h5_name, frame, indent + "  ", body_name(names, b),
-                          (int(starts[b]), count))
-                    for b, count in enumerate(counts) if count > 0)
+    return "".join(_grid(h5_name, frame, indent, body_name(names, b),
+                         (int(starts[b]), count))
+                   for b, count in enumerate(counts) if count > 0)
+
+
+def spatial_frame(name, time, grids, indent):
+    """A frame as a Spatial collection (a multiblock in ParaView) of ``grids``, with its
+    time."""
     return (f'{indent}<Grid Name={quoteattr(name)} GridType="Collection" '
             f'CollectionType="Spatial">\n'
-            f'{indent}  <Time Value="{float(frame["time"])!r}"/>\n'
+            f'{indent}  <Time Value="{float(time)!r}"/>\n'
             f"{grids}{indent}</Grid>\n")
+
+
+def _blocks(h5_name, frame, names, indent):
+    """A frame as a Spatial collection of one Uniform grid per body with particles."""
+    name = frame["group"].rstrip("/").rsplit("/", 1)[-1]
+    return spatial_frame(name, frame["time"],
+                         body_grids(h5_name, frame, names, indent + "  "), indent)
 
 
 def _empty_grid(frame, indent):
     """A frame of no particles: its time in an empty spatial collection (module notes)."""
     name = frame["group"].rstrip("/").rsplit("/", 1)[-1]
-    return (f'{indent}<Grid Name={quoteattr(name)} GridType="Collection" '
-            f'CollectionType="Spatial">\n'
-            f'{indent}  <Time Value="{float(frame["time"])!r}"/>\n'
-            f"{indent}</Grid>\n")
+    return spatial_frame(name, frame["time"], "", indent)
 
 
 def _frame(h5_name, frame, names, indent):
@@ -211,13 +224,14 @@ def xdmf_text(h5_name, frames, body_names=()):
     return xdmf_document([frame_text(h5_name, frame, body_names) for frame in frames])
 
 
-def xdmf_document(frame_texts):
-    """The XDMF document around the frames' elements (:func:`frame_text`), in time order."""
+def xdmf_document(frame_texts, name="particles"):
+    """The XDMF document around the frames' elements (:func:`frame_text`), in time order:
+    a Temporal collection named ``name``."""
     grids = "".join(frame_texts)
     return ('<?xml version="1.0" encoding="utf-8"?>\n'
             '<Xdmf Version="3.0" xmlns:xi="http://www.w3.org/2001/XInclude">\n'
             "  <Domain>\n"
-            '    <Grid Name="particles" GridType="Collection" CollectionType="Temporal">\n'
+            f'    <Grid Name={quoteattr(name)} GridType="Collection" CollectionType="Temporal">\n'
             f"{grids}"
             "    </Grid>\n"
             "  </Domain>\n"

@@ -7,6 +7,7 @@ import numpy as np
 from .. import io
 from ..case.config import converted_into
 from ..io.derived import Deferred, deferred_frame_columns
+from ..io.bodies_xdmf import BodiesXdmf
 from ..io.elements_h5 import ElementWriter
 from ..io.forces import ForcesWriter
 from ..io.probes import ProbeWriter
@@ -277,6 +278,7 @@ class Runner:
             os.path.join(self.out, "elements.h5"), self.sim.elements, names,
             self.world.raw, restart_frame=r["frame_index"] if r else None,
             precision=self.output.precision) if self.sim.elements else None
+        self.bodies_xdmf = BodiesXdmf(os.path.join(self.out, "bodies.xdmf"))
         self.probe_writer = ProbeWriter(
             self.out, self.probes.names, PROBE_COLUMNS,
             restart_step=r["step"] if r else None) \
@@ -302,6 +304,8 @@ class Runner:
                                 deferred_frame_columns(columns, self.output.precision))
         if self.element_writer:
             self.element_writer.write_frame(self.sim.time, self.sim.step_count)
+            if self.world.is_root:
+                self.bodies_xdmf.write(self.writer, self.element_writer)
         self.frame_index += 1
 
     def write_history_row(self, dt):
