@@ -124,10 +124,9 @@ def measure(name, case, sets, ranks, out):
             "steps": s["n_steps"], "step_wall_s": s["step_wall_s"], "compile_s": s["compile_s"],
             "per_rank": per_rank, "element_steps_per_rank": element_rate,
             "particle_steps_per_rank": particle_rate,
-            # summary.json divides the memory added by max(particles, 1): per element here
-            "bytes_per_particle": (memory["bytes_per_particle"] / elements
-                                   if elements and memory.get("bytes_per_particle")
-                                   else memory.get("bytes_per_particle")),
+            # per initial particle or element (summary.json's bytes_per_point)
+            "bytes_per_particle": memory.get("bytes_per_point",
+                                             memory.get("bytes_per_particle")),
             "peak_rss_mb": memory.get("peak_rss_mb_total")}
 
 

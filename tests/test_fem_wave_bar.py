@@ -81,6 +81,10 @@ def test_summary_reports_the_fem_body(runs):
     assert summary["element_steps_per_s"] == pytest.approx(
         100 * summary["n_steps"] / summary["step_wall_s"], rel=1e-9)
     assert 0 < summary["first_step_s"] < summary["step_wall_s"]
+    # no particle to divide the memory by (it was divided by 1 and read as bytes per
+    # particle); per element instead
+    memory = summary["memory"]
+    assert memory["bytes_per_particle"] is None and memory["bytes_per_point"] >= 0
     # the load's work goes into the bar: the balance stays within 1 %
     assert abs(summary["energy_balance"]["growth"]) < 0.01
     with open(os.path.join(runs[1.0], "history.csv")) as f:

@@ -57,13 +57,16 @@ def peak_rss_bytes():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
-def memory_summary(world, baseline, n_particles):
+def memory_summary(world, baseline, n_particles, n_elements=0):
     """Peak memory over all ranks and what the run added per particle: the sum over ranks
     of (peak - baseline), where the baseline is taken after imports and kernel compilation
-    and before any particle exists."""
+    and before any particle exists. ``bytes_per_particle`` over the initial particles
+    (None in a run that starts with none), ``bytes_per_point`` over the initial particles
+    and FEM elements together."""
     peak = peak_rss_bytes()
     added = world.sum(max(peak - baseline, 0))
     return {"peak_rss_mb_total": world.sum(peak) / 2 ** 20,
             "peak_rss_mb_max_rank": world.max(peak) / 2 ** 20,
             "baseline_rss_mb_total": world.sum(baseline) / 2 ** 20,
-            "bytes_per_particle": added / max(n_particles, 1)}
+            "bytes_per_particle": added / n_particles if n_particles else None,
+            "bytes_per_point": added / max(n_particles + n_elements, 1)}

@@ -411,7 +411,9 @@ class Runner:
             "windows": self.window_summary(),
             "energy": sim.energies(),
             "energy_balance": self.watch.summary(),
-            "memory": memory_summary(self.world, self.baseline_rss, self.n_initial),
+            "memory": memory_summary(self.world, self.baseline_rss, self.n_initial,
+                                     self.sim.elements.n_elements_total
+                                     if self.sim.elements else 0),
             "bodies": bodies,
             **self.element_summary(),
             **self.sim.contact_summary(),
