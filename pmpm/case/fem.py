@@ -60,8 +60,8 @@ CONVERT = {
                         "eps_p reached the material's eps_fail, or its damage model's D "
                         "reached 1); as particles the failed material carries no deviator, "
                         "as the particles of a particle body do, where as an element it "
-                        "would be crushed and sheared until it inverts (false: a failed "
-                        "element stays an element)"),
+                        "resists no shear and distorts until another criterion converts "
+                        "it or it inverts (false: a failed element stays an element)"),
     "particles_per_direction": Field(integer(at_least(1), at_most(MAX_CONVERT_DIVISIONS)), 2,
                                      "1", "an element becomes n^3 particles at the centres "
                                           "of its n^3 sub-cells (seed 004: 2, 8 particles)"),
