@@ -212,6 +212,20 @@ def test_the_taylor_bars_foot_converts_and_the_outputs_and_a_restart_follow(tmp_
     assert len(blocks) == 9 and blocks[0] == ["elements"] and blocks[-1] == ["bar", "elements"]
 
 
+def test_bodies_xdmf_is_the_same_document_on_two_ranks(tmp_path):
+    """The bar cut across its axis by the slab plane, its foot converting by 30 us: rank
+    0 writes bodies.xdmf from the collective frames' global counts, so 2 ranks write
+    the 1-rank document to the character, the converted particles in it."""
+    from clihelp import run_ok
+    sets = ["--set", "time.end=0.03", "--set", "output.frames=3", "--set",
+            "decomposition.axis=z", "--quiet"]
+    for ranks in (1, 2):
+        run_ok([TAYLOR, "--out", tmp_path / str(ranks)] + sets, ranks=ranks)
+    one, two = ((tmp_path / r / "bodies.xdmf").read_text() for r in ("1", "2"))
+    assert one == two
+    assert bodies_xdmf_blocks(tmp_path / "2")[-1] == ["bar", "elements"]
+
+
 def bodies_xdmf_blocks(out):
     """The block names of each frame of ``out/bodies.xdmf``, after checking that every
     HDF DataItem names a dataset of particles.h5 or elements.h5 with its shape."""
