@@ -497,7 +497,10 @@ def write_page(json_path, page_path):
 
 if __name__ == "__main__":
     if sys.argv[1:2] == ["--section"]:
-        name = sys.argv[2]
+        name = sys.argv[2] if len(sys.argv) > 2 else ""
+        if name not in SECTIONS:
+            sys.exit(f"performance_page.py: --section: expected one of "
+                     f"{', '.join(SECTIONS)}, got {name!r}")
         write_section(name, *(sys.argv[3:5] + [SECTIONS[name].default, DEFAULT_PAGE][
             len(sys.argv[3:5]):]))
     else:
