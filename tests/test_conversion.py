@@ -227,21 +227,28 @@ def test_bodies_xdmf_is_the_same_document_on_two_ranks(tmp_path):
 
 
 def bodies_xdmf_blocks(out):
-    """The block names of each frame of ``out/bodies.xdmf``, after checking that every
-    HDF DataItem names a dataset of particles.h5 or elements.h5 with its shape."""
+    """The block names of each frame of ``out/bodies.xdmf``, after resolving every grid's
+    DataItems (HDF items and HyperSlabs) against particles.h5 and elements.h5 as a
+    reader does (tests/xdmfread.py) and checking that a particle block holds its body's
+    rows alone and the elements block hexahedra."""
     from xml.etree import ElementTree
 
     import h5py
+    from xdmfread import grid_arrays
     root = ElementTree.parse(out / "bodies.xdmf").getroot()
     files = {name: h5py.File(out / name, "r") for name in ("particles.h5", "elements.h5")}
+    blocks = []
     try:
-        for item in root.iter("DataItem"):
-            if item.get("Format") == "HDF":
-                name, path = item.text.strip().split(":")
-                dims = tuple(int(d) for d in item.get("Dimensions").split())
-                assert files[name][path].shape == dims, path
+        for frame in root.find("Domain/Grid").findall("Grid"):
+            grids = frame.findall("Grid")
+            for grid in grids:
+                arrays = grid_arrays(grid, files)
+                if grid.get("Name") == "elements":
+                    assert arrays["topology"].shape[1:] == (8,)
+                else:
+                    assert (arrays["body"] == 0).all()      # the bar's rows alone
+            blocks.append([grid.get("Name") for grid in grids])
     finally:
         for f in files.values():
             f.close()
-    frames = root.find("Domain/Grid").findall("Grid")
-    return [[grid.get("Name") for grid in frame.findall("Grid")] for frame in frames]
+    return blocks

@@ -1,5 +1,7 @@
 """Resolve the DataItems of particles.xdmf against particles.h5 as an XDMF reader does
-(HDF items and HyperSlabs of them), checking each declared Dimensions on the way."""
+(HDF items and HyperSlabs of them), checking each declared Dimensions on the way; ``h5``
+is the open particles.h5, or {file name: open file} for a document that reads several
+(bodies.xdmf)."""
 import numpy as np
 
 
@@ -22,8 +24,11 @@ def item_array(item, h5):
     else:
         assert item.get("Format") == "HDF"
         name, path = item.text.strip().split(":", 1)
-        assert name == "particles.h5"
-        out = h5[path][()]
+        if isinstance(h5, dict):
+            out = h5[name][path][()]
+        else:
+            assert name == "particles.h5"
+            out = h5[path][()]
     assert out.shape == dims(item), (item.text, out.shape, dims(item))
     return out
 
