@@ -19,8 +19,9 @@ QUICK_CFL = 0.8
 SAFE_CFL = 0.5
 #: the shape functions that keep the energy at 0.8
 QUICK_SHAPES = ("gimp", "bspline")
-#: the solid models (the matrix's rows at 0.8 are elastic and Johnson-Cook, whose stress
-#: update the other solids share; no row runs the fluid or the rigid model there)
+#: the solid models (the matrix's rows at 0.8 are elastic and Johnson-Cook; the J2 models
+#: share Johnson-Cook's return map, and the neo-Hookean bar keeps the elastic one's
+#: energy at 0.8: docs/validation/defaults.md; no row runs the fluid or the rigid model)
 QUICK_MODELS = ("elastic", "neo_hookean", "j2_linear", "j2_power", "johnson_cook")
 CFL_DOC = ("Courant number: the fraction of the stable time step (seed 001 Eq. 35) that "
            "is taken, or `auto` (the default): 0.8 for particle bodies of solid materials "
