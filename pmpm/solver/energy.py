@@ -26,7 +26,9 @@ LOSS_CAUSES = ("contact between bodies beyond its friction (history.csv's dissip
                "time.pic or APIC damping (a PIC "
                "share takes kinetic energy at every transfer), a coarse grid under large rotations, particles that left the "
                "grid, elements or particles removed, fixed faces or rigid bodies "
-               "absorbing an impact")
+               "absorbing an impact, a body stretched and swept over several cells at a "
+               "long step (time.cfl above 0.5, auto's 0.8 included: try time.cfl 0.5; "
+               "docs/validation/defaults.md)")
 
 
 class EnergyWatch:
